@@ -1,0 +1,142 @@
+#pragma once
+/// A simulated world: static textured scene, robot path, stereo rig, sensor noise and seed.
+/// A world file (worlds/*.yaml, format in worlds/README.md) fully determines a simulation.
+/// Frames: world x forward, y left, z up; the robot drives on z = 0 (../shared/METRICS.md).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "common/rig.h"
+#include "common/status.h"
+
+namespace twocam::sim {
+
+enum class TextureKind {
+  kBlobs,     ///< random grey blobs at a chosen feature scale (rich, unique texture)
+  kChecker,   ///< checkerboard of squares
+  kStripes,   ///< vertical stripes: periodic along the scanline (provokes false matches)
+  kBricks,    ///< brick bond: periodic rows of bricks with mortar lines
+  kGradient,  ///< smooth linear gradient: nearly textureless
+  kSolid,     ///< one grey level: textureless
+  kImage,     ///< an image file tiled over the surface
+};
+
+/// How a surface looks. Lengths are measured on the surface [m]; grey levels in [0, 255].
+struct TextureSpec {
+  TextureKind kind = TextureKind::kBlobs;
+  /// Feature size: blob diameter, checker square, stripe period, brick length, image tile width [m].
+  double scale_m = 0.08;
+  /// Darkest and brightest grey level of the pattern.
+  double grey_low = 40.0;
+  double grey_high = 220.0;
+  /// Stripes: fraction of the period that is dark, in (0, 1).
+  double duty = 0.5;
+  /// Bricks: brick height [m] (length is scale_m) and mortar line width [m].
+  double brick_height_m = 0.07;
+  double mortar_m = 0.01;
+  /// Gradient: direction along the surface's first axis (true) or second axis (false).
+  bool gradient_along_u = true;
+  /// Image: path as written in the world file, and the same resolved against the world
+  /// file's folder (the loader fills resolved_path).
+  std::string file;
+  std::string resolved_path;
+  /// Texels per metre when the pattern is rasterised for rendering [1/m].
+  double texels_per_m = 400.0;
+};
+
+enum class ShapeKind { kPlane, kBox, kCylinder };
+
+/// One static object. Every shape has a local frame s placed in the world by T_w_s.
+/// - kPlane: rectangle in the local x-y plane centred at the origin, size_m.x() by size_m.y(),
+///   visible from both sides.
+/// - kBox: box centred at the origin with edge lengths size_m (x, y, z).
+/// - kCylinder: axis along local z from z = 0 to z = size_m.z() (height), radius size_m.x().
+struct Shape {
+  ShapeKind kind = ShapeKind::kPlane;
+  std::string name;
+  Eigen::Isometry3d T_w_s = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d size_m = Eigen::Vector3d::Ones();
+  TextureSpec texture;
+};
+
+/// Differential-drive robot following waypoints on the floor with smooth turns.
+struct RobotSpec {
+  /// Waypoints (x, y) [m]; the robot starts at the first one, heading for the second.
+  std::vector<Eigen::Vector2d> waypoints;
+  /// Cruise speed [m/s].
+  double speed_mps = 0.4;
+  /// Largest yaw rate [rad/s]; bounds how sharp turns are.
+  double max_yaw_rate_rps = 0.6;
+  /// Distance at which a waypoint counts as reached and the next one is steered for [m].
+  double waypoint_radius_m = 0.4;
+  /// Start again at the first waypoint after the last one (true) or stop there (false).
+  bool loop = true;
+  /// Camera and odometry rate [Hz].
+  double frame_rate_hz = 15.0;
+  /// Distance between the wheels [m] (wheel odometry model).
+  double wheel_base_m = 0.35;
+};
+
+/// Image formation noise. Observed grey = gain * rendered + offset + N(0, sigma^2), clamped.
+struct CameraRadiometry {
+  double gain = 1.0;
+  double offset_grey = 0.0;
+};
+struct ImageNoiseSpec {
+  /// Standard deviation of additive Gaussian noise [grey levels].
+  double sigma_grey = 2.0;
+  CameraRadiometry left;
+  CameraRadiometry right;
+};
+
+/// A slip: the wheels report a displacement the body did not make (wheel spin), expressed
+/// in the body frame at the time of the event.
+struct SlipEvent {
+  double time_s = 0.0;
+  double dx_m = 0.0;
+  double dy_m = 0.0;
+  double dyaw_rad = 0.0;
+};
+
+/// Wheel odometry error model (see docs/simulator.md):
+/// - random walk: the travelled distance error has variance sigma_per_m^2 per metre travelled,
+///   the heading error has variance sigma_per_rad^2 per radian turned;
+/// - systematic: reported distance = (1 + scale_error) * true distance; the odometry assumes a
+///   wheel base of (1 + wheel_base_error) * true, so reported turns = true / (1 + wheel_base_error);
+/// - slip events.
+struct OdometryNoiseSpec {
+  double sigma_per_m = 0.02;        ///< [m / sqrt(m)]
+  double sigma_per_rad = 0.02;      ///< [rad / sqrt(rad)]
+  double scale_error = 0.0;         ///< [-], e.g. 0.01 = reports 1 % too far
+  double wheel_base_error = 0.0;    ///< [-], relative
+  std::vector<SlipEvent> slips;
+};
+
+/// The whole simulation.
+struct World {
+  std::string name;
+  /// Seed of every random draw of the simulation (textures, image noise, odometry noise).
+  uint64_t seed = 1;
+  /// Frames simulated when the command line does not say otherwise.
+  int frames = 300;
+  StereoRig rig;
+  RobotSpec robot;
+  ImageNoiseSpec image_noise;
+  OdometryNoiseSpec odometry_noise;
+  std::vector<Shape> shapes;
+  /// Background grey level where no surface is hit.
+  double background_grey = 128.0;
+  /// Folder of the world file, for resolving relative paths.
+  std::string base_dir;
+
+  [[nodiscard]] Status validate() const;
+};
+
+/// Axis-aligned bounding box of all shapes in the world frame [m].
+Eigen::AlignedBox3d worldBounds(const World& world);
+
+}  // namespace twocam::sim

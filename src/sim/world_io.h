@@ -1,0 +1,19 @@
+#pragma once
+/// Reading world files (format: worlds/README.md). Unknown keys and out-of-range values are
+/// errors whose message names the key path, e.g. "rig.baseline_m = -0.1: must be > 0".
+
+#include <string>
+
+#include "common/status.h"
+#include "sim/world.h"
+
+namespace twocam::sim {
+
+/// Loads, parses and validates a world file. Relative texture paths are resolved against the
+/// file's folder and must exist. On error *world is unspecified and the Status says why.
+Status loadWorld(const std::string& path, World* world);
+
+/// Same from YAML text; base_dir resolves relative paths.
+Status parseWorld(const std::string& yaml_text, const std::string& base_dir, World* world);
+
+}  // namespace twocam::sim
