@@ -1,0 +1,22 @@
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace twocam::tools {
+
+struct SimulateArgs {
+  std::string world_path;
+  std::string output_path;
+  std::optional<int> frames;
+  std::optional<uint64_t> seed;
+  /// Folder for the contact sheet, trajectory CSV and timing summary; default "<stem>_preview"
+  /// next to the log.
+  std::string preview_dir;
+  bool quiet = false;
+};
+
+/// Runs `twocam simulate`. Returns the process exit code (0 ok, 1 error); errors go to stderr.
+int runSimulate(const SimulateArgs& args);
+
+}  // namespace twocam::tools
