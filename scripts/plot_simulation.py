@@ -44,6 +44,8 @@ def main():
             xs, ys = zip(*pts)
             if kind == "floor":
                 ax.plot(xs, ys, color="0.85", lw=0.8, zorder=1)
+            elif kind == "overhead":
+                ax.plot(xs, ys, color="0.6", lw=1.0, ls=":", zorder=2)
             else:
                 ax.plot(xs, ys, color="0.35", lw=1.6 if kind == "wall" else 1.0, zorder=2,
                         label="world (walls, objects)" if first else None)

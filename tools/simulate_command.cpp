@@ -1,6 +1,8 @@
 #include "simulate_command.h"
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -32,6 +34,55 @@ double median(std::vector<double> v) {
 }
 
 }  // namespace
+
+/// Top-down outline of every shape as polylines (x, y) for the trajectory plot: vertical
+/// planes as segments, horizontal planes and boxes as rectangles, cylinders as polygons.
+std::string worldOutlineCsv(const sim::World& world) {
+  std::ostringstream os;
+  os << "shape,name,kind,x_m,y_m\n";
+  auto emit = [&](size_t i, const std::string& kind, const std::vector<Eigen::Vector3d>& pts) {
+    for (const auto& p : pts) os << i << "," << world.shapes[i].name << "," << kind << "," << p.x() << "," << p.y() << "\n";
+  };
+  for (size_t i = 0; i < world.shapes.size(); ++i) {
+    const sim::Shape& s = world.shapes[i];
+    const Eigen::Isometry3d& T = s.T_w_s;
+    switch (s.kind) {
+      case sim::ShapeKind::kPlane: {
+        const double hx = 0.5 * s.size_m.x(), hy = 0.5 * s.size_m.y();
+        const bool horizontal = std::abs(T.linear().col(2).z()) > 0.9;
+        std::vector<Eigen::Vector3d> c = {T * Eigen::Vector3d(-hx, -hy, 0), T * Eigen::Vector3d(hx, -hy, 0),
+                                          T * Eigen::Vector3d(hx, hy, 0), T * Eigen::Vector3d(-hx, hy, 0)};
+        if (horizontal) {
+          c.push_back(c.front());
+          emit(i, "floor", c);
+        } else {
+          // Wall parts that do not reach down to the robot (lintels above doors) are drawn apart.
+          double min_z = c[0].z();
+          for (const auto& p : c) min_z = std::min(min_z, p.z());
+          emit(i, min_z > 1.0 ? "overhead" : "wall", {c[0], c[1], c[2], c[3], c[0]});
+        }
+        break;
+      }
+      case sim::ShapeKind::kBox: {
+        const Eigen::Vector3d h = 0.5 * s.size_m;
+        emit(i, "box", {T * Eigen::Vector3d(-h.x(), -h.y(), 0), T * Eigen::Vector3d(h.x(), -h.y(), 0),
+                        T * Eigen::Vector3d(h.x(), h.y(), 0), T * Eigen::Vector3d(-h.x(), h.y(), 0),
+                        T * Eigen::Vector3d(-h.x(), -h.y(), 0)});
+        break;
+      }
+      case sim::ShapeKind::kCylinder: {
+        std::vector<Eigen::Vector3d> c;
+        for (int k = 0; k <= 24; ++k) {
+          const double a = 2.0 * M_PI * k / 24;
+          c.push_back(T * Eigen::Vector3d(s.size_m.x() * std::cos(a), s.size_m.x() * std::sin(a), 0));
+        }
+        emit(i, "cylinder", c);
+        break;
+      }
+    }
+  }
+  return os.str();
+}
 
 int runSimulate(const SimulateArgs& args) {
   sim::World world;
@@ -104,6 +155,11 @@ int runSimulate(const SimulateArgs& args) {
     std::ofstream f(preview_dir + "/trajectory.csv");
     f << traj.str();
     if (!f) return fail("cannot write '" + preview_dir + "/trajectory.csv'");
+  }
+  {
+    std::ofstream f(preview_dir + "/world_outline.csv");
+    f << worldOutlineCsv(world);
+    if (!f) return fail("cannot write '" + preview_dir + "/world_outline.csv'");
   }
   {
     std::ofstream f(preview_dir + "/simulate.json");

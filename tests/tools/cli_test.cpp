@@ -6,6 +6,8 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "io/rawlog.h"
@@ -22,7 +24,11 @@ struct RunResult {
 };
 
 RunResult run(const std::string& args) {
-  const std::string out_file = (fs::temp_directory_path() / "twocam_cli_test_output.txt").string();
+  // One output file per test and process: CTest runs the tests of this binary in parallel.
+  const std::string out_file = (fs::temp_directory_path() /
+                                ("twocam_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
+                                 std::to_string(getpid()) + ".txt"))
+                                   .string();
   const std::string cmd = std::string(TWOCAM_BINARY) + " " + args + " > " + out_file + " 2>&1";
   const int rc = std::system(cmd.c_str());
   RunResult r;
