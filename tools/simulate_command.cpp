@@ -143,8 +143,10 @@ int runSimulate(const SimulateArgs& args) {
     }
     bar.update(k + 1);
   }
-  if (Status st = writer->finish(); !st) return fail(st.message());
+  // Timed up to here: moving the finished log into place (and deleting an older log's image
+  // folder it replaces) is not per-frame work.
   const double loop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (Status st = writer->finish(); !st) return fail(st.message());
   const double fps = n / loop_s;
 
   std::error_code ec;

@@ -31,8 +31,6 @@ inline constexpr const char* kGtDepthLabel = "GT_DEPTH";
 struct RawlogWriterOptions {
   /// zlib level of the rawlog stream, 0 (none) to 9; 1 is fast and shrinks depth images ~3x.
   int gzip_level = 1;
-  /// PNG compression of the external images, 0 to 9; 1: fast, lossless like every level.
-  int png_compression = 1;
   /// Depth quantisation of the ground-truth depth image [m per unit]. 0 = choose the finest
   /// unit that still represents max_depth_m in 16 bits.
   double depth_unit_m = 0.0;
