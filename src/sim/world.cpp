@@ -95,9 +95,9 @@ void checkRobot(const RobotSpec& robot, Checker* c) {
   c->positive("robot.waypoint_radius_m", robot.waypoint_radius_m);
   c->openClosed("robot.frame_rate_hz", robot.frame_rate_hz, 0.0, kMaxFrameRateHz);
   c->positive("robot.wheel_base_m", robot.wheel_base_m);
-  c->require(robot.waypoints.size() >= 2,
-             "robot.waypoints: need at least 2 waypoints, got " +
-                 std::to_string(robot.waypoints.size()));
+  c->require(
+      robot.waypoints.size() >= 2,
+      "robot.waypoints: need at least 2 waypoints, got " + std::to_string(robot.waypoints.size()));
   for (size_t i = 0; i < robot.waypoints.size(); ++i) {
     const Eigen::Vector2d& p = robot.waypoints[i];
     c->require(p.allFinite(), indexed("robot.waypoints", i) + " is not finite");
@@ -136,8 +136,8 @@ void checkTexture(const TextureSpec& t, const std::string& key, Checker* c) {
   c->closed(key + ".grey_high", t.grey_high, 0.0, kMaxGrey);
   if (!c->failed()) {
     c->require(t.grey_low <= t.grey_high,
-               key + ": grey_low = " + Checker::str(t.grey_low) + " exceeds grey_high = " +
-                   Checker::str(t.grey_high));
+               key + ": grey_low = " + Checker::str(t.grey_low) +
+                   " exceeds grey_high = " + Checker::str(t.grey_high));
   }
   c->open(key + ".duty", t.duty, 0.0, 1.0);
   c->positive(key + ".brick_height_m", t.brick_height_m);

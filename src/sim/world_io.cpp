@@ -185,8 +185,8 @@ class MapReader {
   [[nodiscard]] const Node& require(const char* key) const {
     const Node* n = find(key);
     if (n == nullptr) {
-      fail((path_.empty() ? std::string("the document") : path_) + ": missing key '" + key +
-           "'" + lineOf(node_));
+      fail((path_.empty() ? std::string("the document") : path_) + ": missing key '" + key + "'" +
+           lineOf(node_));
     }
     return *n;
   }
@@ -271,16 +271,10 @@ struct Mount {
 void parseRig(const Node* node, StereoRig* rig) {
   Mount mount;
   if (node != nullptr) {
-    const MapReader m(*node,
-                      "rig",
-                      {"width_px",
-                       "height_px",
-                       "fx_px",
-                       "fy_px",
-                       "cx_px",
-                       "cy_px",
-                       "baseline_m",
-                       "mount"});
+    const MapReader m(
+        *node,
+        "rig",
+        {"width_px", "height_px", "fx_px", "fy_px", "cx_px", "cy_px", "baseline_m", "mount"});
     m.read("width_px", &rig->width_px);
     m.read("height_px", &rig->height_px);
     m.read("fx_px", &rig->fx_px);
@@ -478,7 +472,8 @@ Shape parseShape(const Node& node, size_t index, const std::string& base_dir) {
     shape.T_w_s.translation() = Eigen::Vector3d(c[0], c[1], c[2]);
     shape.size_m = Eigen::Vector3d(size[0], size[1], 0.0);
   } else if (type == "wall") {
-    const MapReader m(node, path, {"type", "name", "texture", "from_m", "to_m", "z0_m", "height_m"});
+    const MapReader m(
+        node, path, {"type", "name", "texture", "from_m", "to_m", "z0_m", "height_m"});
     read_common(m);
     shape.kind = ShapeKind::kPlane;
     const std::vector<double> from = m.requireNumbers("from_m", 2);
@@ -549,7 +544,8 @@ void parseDocument(const Node& root, const std::string& base_dir, World* w) {
   if (const Node* n = m.find("image_noise")) parseImageNoise(*n, &w->image_noise);
   if (const Node* n = m.find("odometry_noise")) parseOdometryNoise(*n, &w->odometry_noise);
   if (const Yaml::sequence_t* seq = sequenceOrNull(m, "shapes")) {
-    for (size_t i = 0; i < seq->size(); ++i) w->shapes.push_back(parseShape((*seq)[i], i, base_dir));
+    for (size_t i = 0; i < seq->size(); ++i)
+      w->shapes.push_back(parseShape((*seq)[i], i, base_dir));
   }
 }
 
@@ -680,7 +676,8 @@ Status parseWorld(const std::string& yaml_text, const std::string& base_dir, Wor
 Status loadWorld(const std::string& path, World* world) {
   std::error_code ec;
   const fs::path file(path);
-  if (!fs::exists(file, ec)) return Status::error("cannot read world file '" + path + "': no such file");
+  if (!fs::exists(file, ec))
+    return Status::error("cannot read world file '" + path + "': no such file");
   if (fs::is_directory(file, ec)) {
     return Status::error("cannot read world file '" + path + "': it is a directory");
   }

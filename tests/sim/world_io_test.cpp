@@ -1,13 +1,13 @@
 #include "sim/world_io.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "support/test_paths.h"
 
@@ -173,11 +173,10 @@ TEST(WorldIo, ParsesPlaneWithRollPitchYaw) {
 
   const Shape& tilted = w.shapes[4];
   EXPECT_EQ(tilted.name, "plane4");  // default name: type and index
-  const Eigen::Matrix3d expected =
-      (Eigen::AngleAxisd(30 * kDegToRad, Eigen::Vector3d::UnitZ()) *
-       Eigen::AngleAxisd(20 * kDegToRad, Eigen::Vector3d::UnitY()) *
-       Eigen::AngleAxisd(10 * kDegToRad, Eigen::Vector3d::UnitX()))
-          .matrix();
+  const Eigen::Matrix3d expected = (Eigen::AngleAxisd(30 * kDegToRad, Eigen::Vector3d::UnitZ()) *
+                                    Eigen::AngleAxisd(20 * kDegToRad, Eigen::Vector3d::UnitY()) *
+                                    Eigen::AngleAxisd(10 * kDegToRad, Eigen::Vector3d::UnitX()))
+                                       .matrix();
   EXPECT_TRUE(tilted.T_w_s.linear().isApprox(expected, kGeometryTol));
   EXPECT_EQ(tilted.texture.kind, TextureKind::kGradient);
   EXPECT_FALSE(tilted.texture.gradient_along_u);
@@ -292,8 +291,7 @@ TEST(WorldIo, UnknownKeysNameTheirPath) {
   EXPECT_NE(cyl.find("unknown key 'shapes[3].yaw_deg'"), std::string::npos) << cyl;
 
   const std::string slip = parseError(exampleWith("dyaw_deg: 2.0", "dyaw_rad: 2.0"));
-  EXPECT_NE(slip.find("unknown key 'odometry_noise.slips[0].dyaw_rad'"), std::string::npos)
-      << slip;
+  EXPECT_NE(slip.find("unknown key 'odometry_noise.slips[0].dyaw_rad'"), std::string::npos) << slip;
 }
 
 TEST(WorldIo, WrongTypesNameTheKey) {
@@ -333,14 +331,12 @@ TEST(WorldIo, OutOfRangeValuesNameTheKey) {
   const std::string speed = parseError(exampleWith("speed_mps: 0.4", "speed_mps: 0"));
   EXPECT_NE(speed.find("robot.speed_mps = 0: must be > 0"), std::string::npos) << speed;
 
-  const std::string one_waypoint =
-      parseError(exampleWith("[[0, 0], [4, 0], [4, 3]]", "[[0, 0]]"));
+  const std::string one_waypoint = parseError(exampleWith("[[0, 0], [4, 0], [4, 3]]", "[[0, 0]]"));
   EXPECT_NE(one_waypoint.find("robot.waypoints: need at least 2 waypoints"), std::string::npos)
       << one_waypoint;
 
   const std::string grey = parseError(exampleWith("grey_low: 10", "grey_low: 30"));
-  EXPECT_NE(grey.find("shapes[4].texture: grey_low = 30 exceeds grey_high = 20"),
-            std::string::npos)
+  EXPECT_NE(grey.find("shapes[4].texture: grey_low = 30 exceeds grey_high = 20"), std::string::npos)
       << grey;
 
   const std::string duty = parseError(exampleWith("duty: 0.3", "duty: 1.0"));
@@ -363,8 +359,7 @@ TEST(WorldIo, OutOfRangeValuesNameTheKey) {
   const std::string wall = parseError(exampleWith("to_m: [10, 4]", "to_m: [0, 4]"));
   EXPECT_NE(wall.find("shapes[1].to_m: must differ from from_m"), std::string::npos) << wall;
 
-  const std::string no_shapes = parseError(
-      "robot: {waypoints: [[0, 0], [1, 0]]}\nshapes: []\n");
+  const std::string no_shapes = parseError("robot: {waypoints: [[0, 0], [1, 0]]}\nshapes: []\n");
   EXPECT_NE(no_shapes.find("shapes: the world needs at least one shape"), std::string::npos)
       << no_shapes;
 }
@@ -387,8 +382,8 @@ TEST(WorldIo, ImageTextureFileIsResolvedAndMustExist) {
   ASSERT_TRUE(s.isOk()) << s.message();
   EXPECT_EQ(w.shapes[2].texture.kind, TextureKind::kImage);
   EXPECT_EQ(w.shapes[2].texture.file, "tex/poster.png");
-  EXPECT_TRUE(fs::equivalent(w.shapes[2].texture.resolved_path,
-                             fs::path(dir) / "tex" / "poster.png"));
+  EXPECT_TRUE(
+      fs::equivalent(w.shapes[2].texture.resolved_path, fs::path(dir) / "tex" / "poster.png"));
 
   const std::string stray = parseError(
       exampleWith("{kind: checker, scale_m: 0.1}", "{kind: checker, file: tex/poster.png}"), dir);
@@ -423,8 +418,7 @@ TEST(WorldIo, LoadWorldReportsMissingFileAndDefaultsNameToStem) {
   const Status invalid = loadWorld(file.string(), &w);
   ASSERT_FALSE(invalid.isOk());
   EXPECT_NE(invalid.message().find(file.string()), std::string::npos) << invalid.message();
-  EXPECT_NE(invalid.message().find("robot.speed_mps = -1"), std::string::npos)
-      << invalid.message();
+  EXPECT_NE(invalid.message().find("robot.speed_mps = -1"), std::string::npos) << invalid.message();
 }
 
 TEST(WorldIo, ValidateAcceptsCodeBuiltWorldAndRejectsBadShape) {
