@@ -1,0 +1,590 @@
+#include "landmarks/landmark_database.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "landmarks/landmark_model.h"
+#include "landmarks/refine.h"
+
+namespace twocam::landmarks {
+namespace {
+
+/// Side of the square image cells of the per-frame hypothesis index [px]: about the gate's
+/// width, so a query touches a handful of cells.
+constexpr int kGridCellPx = 16;
+
+double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+}  // namespace
+
+LandmarkDatabase::LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options)
+    : rig_(rig), options_(options), T_b_cl_(rig.T_b_cl) {
+  const Status rig_status = rig.validate();
+  TWOCAM_CHECK(rig_status.isOk()) << rig_status.message();
+  const Status options_status = options.validate();
+  TWOCAM_CHECK(options_status.isOk()) << options_status.message();
+  grid_cols_ = (rig.width_px + kGridCellPx - 1) / kGridCellPx;
+  grid_rows_ = (rig.height_px + kGridCellPx - 1) / kGridCellPx;
+}
+
+Status LandmarkDatabase::update(int32_t frame,
+                                int64_t t_ns,
+                                const Pose2& odom_pose,
+                                const StereoHypotheses& hyps,
+                                FrameReport* report) {
+  TWOCAM_CHECK(report != nullptr);
+  if (!std::isfinite(odom_pose.x_m) || !std::isfinite(odom_pose.y_m) || !std::isfinite(odom_pose.yaw_rad)) {
+    std::ostringstream msg;
+    msg << "frame " << frame << ": odometry pose is not finite (x=" << odom_pose.x_m << ", y=" << odom_pose.y_m
+        << ", yaw=" << odom_pose.yaw_rad << ")";
+    return Status::error(msg.str());
+  }
+  if (has_previous_ && frame <= frame_) {
+    return Status::error("frame index " + std::to_string(frame) + " does not follow frame " + std::to_string(frame_));
+  }
+  if (has_previous_ && t_ns < t_ns_) {
+    return Status::error("frame " + std::to_string(frame) + ": time stamp goes backwards (" + std::to_string(t_ns) +
+                         " ns after " + std::to_string(t_ns_) + " ns)");
+  }
+  for (size_t i = 0; i < hyps.points.size(); ++i) {
+    const SalientPoint& p = hyps.points[i];
+    if (static_cast<size_t>(p.first_hypothesis) + p.num_hypotheses > hyps.hypotheses.size() || p.corner.u_px < 0 ||
+        p.corner.v_px < 0 || p.corner.u_px >= rig_.width_px || p.corner.v_px >= rig_.height_px) {
+      return Status::error("frame " + std::to_string(frame) + ": salient point " + std::to_string(i) +
+                           " is outside the image or references missing hypotheses");
+    }
+  }
+  for (const DisparityHypothesis& h : hyps.hypotheses) {
+    if (h.point_index >= hyps.points.size() || !std::isfinite(h.d_px)) {
+      return Status::error("frame " + std::to_string(frame) + ": a hypothesis has a bad point index or disparity");
+    }
+  }
+
+  report->frame = frame;
+  report->hypotheses = static_cast<int>(hyps.hypotheses.size());
+  report->predicted_visible = report->associated = report->seeded = 0;
+  report->confirmed = report->pruned = report->refined = 0;
+  report->created_slots.clear();
+  report->created_hypotheses.clear();
+  report->removed_ids.clear();
+  report->hypothesis_landmark.assign(hyps.hypotheses.size(), -1);
+
+  if (has_previous_) {
+    path_m_ += std::hypot(odom_pose.x_m - pose_.x_m, odom_pose.y_m - pose_.y_m);
+    turn_rad_ += std::abs(wrapAngle(odom_pose.yaw_rad - pose_.yaw_rad));
+  }
+  has_previous_ = true;
+  frame_ = frame;
+  t_ns_ = t_ns;
+  pose_ = odom_pose;
+  T_w_cl_ = cameraPoseInWorld(odom_pose, T_b_cl_);
+  T_cl_w_ = T_w_cl_.inverse();
+
+  // Per-frame hypothesis index: counting sort of hypotheses by image cell of their point.
+  const int num_cells = grid_cols_ * grid_rows_;
+  grid_start_.assign(static_cast<size_t>(num_cells) + 1, 0);
+  for (const DisparityHypothesis& h : hyps.hypotheses) {
+    const Corner& c = hyps.points[h.point_index].corner;
+    ++grid_start_[(c.v_px / kGridCellPx) * grid_cols_ + c.u_px / kGridCellPx + 1];
+  }
+  for (int i = 0; i < num_cells; ++i) grid_start_[i + 1] += grid_start_[i];
+  grid_items_.resize(hyps.hypotheses.size());
+  {
+    std::vector<int32_t>& fill = hyp_claim_;  // reused as a cursor array before the claims
+    fill.assign(grid_start_.begin(), grid_start_.end() - 1);
+    for (size_t j = 0; j < hyps.hypotheses.size(); ++j) {
+      const Corner& c = hyps.points[hyps.hypotheses[j].point_index].corner;
+      grid_items_[fill[(c.v_px / kGridCellPx) * grid_cols_ + c.u_px / kGridCellPx]++] = static_cast<int32_t>(j);
+    }
+  }
+  const double d_range = options_.max_disparity_px - options_.min_disparity_px + 1.0;
+  hypothesis_density_ =
+      static_cast<double>(hyps.hypotheses.size()) / (static_cast<double>(rig_.width_px) * rig_.height_px * d_range);
+
+  predictAll(T_cl_w_, hyps);
+  associate(hyps, report);
+  scoreAndLifeCycle(report);
+  seed(hyps, report);
+  enforceCaps(report);
+  return Status::ok();
+}
+
+uint32_t LandmarkDatabase::allocateSlot() {
+  uint32_t slot;
+  if (!free_slots_.empty()) {
+    slot = free_slots_.back();
+    free_slots_.pop_back();
+  } else {
+    slot = static_cast<uint32_t>(slots_.size());
+    slots_.emplace_back();
+  }
+  Landmark& l = slots_[slot];
+  std::vector<Observation> keep = std::move(l.observations);  // keeps its capacity
+  keep.clear();
+  l = Landmark();
+  l.observations = std::move(keep);
+  l.id = next_id_++;
+  return slot;
+}
+
+void LandmarkDatabase::releaseSlot(uint32_t slot, FrameReport* report) {
+  Landmark& l = slots_[slot];
+  if (l.state == LandmarkState::kFree) return;
+  removeFromGroup(slot);
+  if (l.state == LandmarkState::kCandidate) --num_candidates_;
+  if (l.state == LandmarkState::kConfirmed) --num_confirmed_;
+  l.state = LandmarkState::kFree;
+  l.observations.clear();
+  free_slots_.push_back(slot);
+  if (report != nullptr) {
+    report->removed_ids.push_back(l.id);
+    ++report->pruned;
+  }
+}
+
+uint32_t LandmarkDatabase::allocateGroup() {
+  if (!free_groups_.empty()) {
+    const uint32_t g = free_groups_.back();
+    free_groups_.pop_back();
+    groups_[g] = RivalGroup();
+    return g;
+  }
+  groups_.emplace_back();
+  return static_cast<uint32_t>(groups_.size() - 1);
+}
+
+void LandmarkDatabase::removeFromGroup(uint32_t slot) {
+  Landmark& l = slots_[slot];
+  if (l.group == 0) return;  // group index 0 means "none"; real groups are stored at g + 1
+  RivalGroup& g = groups_[l.group - 1];
+  for (int i = 0; i < g.count; ++i) {
+    if (g.members[i] == slot) {
+      g.removed_mass += static_cast<double>(l.prior) * std::exp(static_cast<double>(l.evidence));
+      g.members[i] = g.members[g.count - 1];
+      --g.count;
+      break;
+    }
+  }
+  if (g.count == 0) free_groups_.push_back(l.group - 1);
+  l.group = 0;
+}
+
+void LandmarkDatabase::normaliseGroup(uint32_t group) {
+  const RivalGroup& g = groups_[group];
+  double prior[RivalGroup::kMaxMembers];
+  double evidence[RivalGroup::kMaxMembers];
+  double prob[RivalGroup::kMaxMembers];
+  for (int i = 0; i < g.count; ++i) {
+    prior[i] = slots_[g.members[i]].prior;
+    evidence[i] = slots_[g.members[i]].evidence;
+  }
+  normaliseRivals(prior, evidence, g.count, g.none_mass, g.removed_mass, prob);
+  for (int i = 0; i < g.count; ++i) slots_[g.members[i]].confidence = static_cast<float>(prob[i]);
+}
+
+void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& /*hyps*/) {
+  predictions_.clear();
+  visible_.assign(slots_.size(), 0);
+  associated_.assign(slots_.size(), 0);
+  contradicted_.assign(slots_.size(), 0);
+  informative_.assign(slots_.size(), 0);
+  const double border = options_.visibility_border_px;
+  const double g = std::sqrt(options_.gate_chi2);
+  const double ellipsoid = 4.0 / 3.0 * M_PI * g * g * g;
+  for (uint32_t s = 0; s < slots_.size(); ++s) {
+    Landmark& l = slots_[s];
+    if (l.state == LandmarkState::kFree) continue;
+    const Eigen::Vector3d p_cl = T_cl_w * l.p_w_last;
+    Eigen::Vector3d uvd;
+    const bool in_view = p_cl.z() >= options_.min_depth_m && projectStereo(rig_, p_cl, &uvd) &&
+                         uvd.x() >= border && uvd.x() <= rig_.width_px - 1 - border && uvd.y() >= border &&
+                         uvd.y() <= rig_.height_px - 1 - border && uvd.z() >= options_.min_disparity_px - 1.0 &&
+                         uvd.z() <= options_.max_disparity_px + 1.0;
+    if (!in_view) {
+      ++l.frames_out_of_view;
+      continue;
+    }
+    l.frames_out_of_view = 0;
+    ++l.n_visible;
+    visible_[s] = 1;
+    const MeasurementSigma sigma = predictionSigma(options_,
+                                                   rig_,
+                                                   uvd,
+                                                   p_cl.z(),
+                                                   path_m_ - l.path_at_last_seen_m,
+                                                   turn_rad_ - l.turn_at_last_seen_rad);
+    Prediction p;
+    p.slot = s;
+    p.u = static_cast<float>(uvd.x());
+    p.v = static_cast<float>(uvd.y());
+    p.d = static_cast<float>(uvd.z());
+    p.inv_var_u = static_cast<float>(1.0 / (sigma.u_px * sigma.u_px));
+    p.inv_var_v = static_cast<float>(1.0 / (sigma.v_px * sigma.v_px));
+    p.inv_var_d = static_cast<float>(1.0 / (sigma.d_px * sigma.d_px));
+    p.gate_u = static_cast<float>(g * sigma.u_px);
+    p.gate_v = static_cast<float>(g * sigma.v_px);
+    p.p_false_hit_per_hyp =
+        static_cast<float>(std::min(0.99, hypothesis_density_ * ellipsoid * sigma.u_px * sigma.v_px * sigma.d_px));
+    predictions_.push_back(p);
+  }
+}
+
+void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* report) {
+  hyp_claim_.assign(hyps.hypotheses.size(), -1);
+  hyp_claim_d2_.assign(hyps.hypotheses.size(), 0.0f);
+  const float gate = static_cast<float>(options_.gate_chi2);
+  // Confirmed landmarks choose first: a corner they explain is not given to a candidate.
+  // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
+  std::vector<int32_t> pred_hyp(predictions_.size(), -1);
+  for (int pass = 0; pass < 2; ++pass) {
+    const LandmarkState wanted = pass == 0 ? LandmarkState::kConfirmed : LandmarkState::kCandidate;
+    for (size_t i = 0; i < predictions_.size(); ++i) {
+      const Prediction& p = predictions_[i];
+      if (slots_[p.slot].state != wanted) continue;
+      const int c0 = std::max(0, static_cast<int>((p.u - p.gate_u) / kGridCellPx));
+      const int c1 = std::min(grid_cols_ - 1, static_cast<int>((p.u + p.gate_u) / kGridCellPx));
+      const int r0 = std::max(0, static_cast<int>((p.v - p.gate_v) / kGridCellPx));
+      const int r1 = std::min(grid_rows_ - 1, static_cast<int>((p.v + p.gate_v) / kGridCellPx));
+      int32_t best = -1;
+      float best_d2 = gate;
+      for (int r = r0; r <= r1; ++r) {
+        for (int c = c0; c <= c1; ++c) {
+          const int cell = r * grid_cols_ + c;
+          for (int k = grid_start_[cell]; k < grid_start_[cell + 1]; ++k) {
+            const int32_t j = grid_items_[k];
+            const DisparityHypothesis& h = hyps.hypotheses[j];
+            const Corner& corner = hyps.points[h.point_index].corner;
+            const float du = static_cast<float>(corner.u_px) - p.u;
+            const float dv = static_cast<float>(corner.v_px) - p.v;
+            const float dd = h.d_px - p.d;
+            const float d2 = du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d;
+            if (d2 > best_d2) continue;
+            const int32_t owner = hyp_claim_[j];
+            if (owner >= 0) {
+              // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
+              if (slots_[predictions_[owner].slot].state == LandmarkState::kConfirmed && pass == 1) continue;
+              if (hyp_claim_d2_[j] <= d2) continue;
+            }
+            best = j;
+            best_d2 = d2;
+          }
+        }
+      }
+      if (best < 0) continue;
+      const int32_t previous = hyp_claim_[best];
+      if (previous >= 0) pred_hyp[previous] = -1;
+      hyp_claim_[best] = static_cast<int32_t>(i);
+      hyp_claim_d2_[best] = best_d2;
+      pred_hyp[i] = best;
+    }
+  }
+  for (size_t i = 0; i < predictions_.size(); ++i) {
+    if (pred_hyp[i] < 0) continue;
+    const uint32_t slot = predictions_[i].slot;
+    const DisparityHypothesis& h = hyps.hypotheses[pred_hyp[i]];
+    associated_[slot] = 1;
+    if (!applyObservation(slot, h, hyps.points[h.point_index].corner)) continue;  // contradicted
+    report->hypothesis_landmark[pred_hyp[i]] = static_cast<int32_t>(slot);
+    ++report->associated;
+  }
+  report->predicted_visible = static_cast<int>(predictions_.size());
+}
+
+bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c) {
+  Landmark& l = slots_[slot];
+  if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
+    const AnchorCheck check = checkAgainstAnchor(options_,
+                                                 rig_,
+                                                 cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_),
+                                                 l.anchor.u_px,
+                                                 l.anchor.v_px,
+                                                 l.anchor.d_px,
+                                                 T_cl_w_,
+                                                 c.v_px,
+                                                 h.d_px,
+                                                 path_m_ - l.path_at_anchor_m,
+                                                 turn_rad_ - l.turn_at_anchor_rad);
+    const bool consistent = check.valid && check.mahalanobis2 <= options_.anchor_gate_chi2;
+    informative_[slot] = check.discriminative ? 1 : 0;
+    if (!consistent) {
+      // Evidence against the candidate, but not an observation of it: the track stays where the
+      // anchor says it should be, so a spurious candidate cannot hop onto other points.
+      contradicted_[slot] = 1;
+      return false;
+    }
+    if (check.discriminative) l.verified = true;
+  }
+  Observation obs;
+  obs.frame = frame_;
+  obs.u_px = static_cast<float>(c.u_px);
+  obs.v_px = static_cast<float>(c.v_px);
+  obs.d_px = h.d_px;
+  obs.odom_pose = pose_;
+  if (static_cast<int>(l.observations.size()) >= options_.max_observations) {
+    l.observations.erase(l.observations.begin() + 1);  // keep the anchor, drop the oldest other
+  }
+  l.observations.push_back(obs);
+  ++l.n_obs;
+  l.last_seen_frame = frame_;
+  l.path_at_last_seen_m = path_m_;
+  l.turn_at_last_seen_rad = turn_rad_;
+  l.consecutive_misses = 0;
+  if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(c.u_px, c.v_px), h.d_px)) {
+    l.p_w_last = T_w_cl_ * *p_cl;
+    if (options_.policy == Policy::kInlierRatio && l.state == LandmarkState::kCandidate) {
+      // The measurement as an inverse depth along the anchor ray (SVO's seed parametrisation).
+      const Eigen::Vector3d p_anchor = cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_).inverse() * l.p_w_last;
+      if (p_anchor.z() > options_.min_depth_m) {
+        const double fb = rig_.fx_px * rig_.baseline_m;
+        const double ratio = p_cl->z() / p_anchor.z();
+        const double tau = ratio * ratio * options_.disparity_sigma_px / fb;
+        SvoSeed seed{l.svo_mu, l.svo_sigma2, l.svo_a, l.svo_b, l.svo_range};
+        if (updateSvoSeed(1.0 / p_anchor.z(), tau * tau, &seed)) {
+          l.svo_mu = static_cast<float>(seed.mu);
+          l.svo_sigma2 = static_cast<float>(seed.sigma2);
+          l.svo_a = static_cast<float>(seed.a);
+          l.svo_b = static_cast<float>(seed.b);
+        }
+      }
+    }
+  }
+  return true;
+}
+
+void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
+  // 1. Evidence from this frame's hits and misses (predicted visible landmarks only).
+  groups_touched_.clear();
+  group_touched_flag_.resize(groups_.size(), 0);
+  for (const Prediction& p : predictions_) {
+    Landmark& l = slots_[p.slot];
+    const bool hit = associated_[p.slot] != 0;
+    if (!hit || contradicted_[p.slot]) ++l.consecutive_misses;
+    if (options_.policy != Policy::kConsistency) continue;
+    if (path_m_ - l.path_at_last_evidence_m < options_.evidence_step_m) continue;
+    l.path_at_last_evidence_m = path_m_;
+    if (!hit) {
+      l.evidence += static_cast<float>(missEvidence(options_.detection_prob, p.p_false_hit_per_hyp));
+    } else if (contradicted_[p.slot]) {
+      l.evidence += static_cast<float>(options_.contradiction_evidence);
+    } else if (informative_[p.slot] || l.state == LandmarkState::kConfirmed) {
+      l.evidence += static_cast<float>(
+          hitEvidence(options_.detection_prob, p.p_false_hit_per_hyp, options_.max_hit_evidence));
+    } else {
+      // Before the motion since its anchor could tell its depth from a rival's, a re-observation
+      // only shows the corner is stable: a periodic-texture phantom reappears just the same.
+      l.evidence += static_cast<float>(options_.stability_evidence);
+    }
+    if (l.group != 0 && !group_touched_flag_[l.group - 1]) {
+      group_touched_flag_[l.group - 1] = 1;
+      groups_touched_.push_back(l.group - 1);
+    }
+    if (l.group == 0) {
+      // A confirmed landmark (no rivals left): plain log-odds with its prior.
+      const double mass = l.prior * std::exp(static_cast<double>(l.evidence));
+      l.confidence = static_cast<float>(mass / (mass + (1.0 - options_.prior_real)));
+    }
+  }
+  for (uint32_t g : groups_touched_) {
+    group_touched_flag_[g] = 0;
+    if (groups_[g].count > 0) normaliseGroup(g);
+  }
+
+  // 2. Policy rules and life cycle of candidates.
+  const double t_s = static_cast<double>(t_ns_) * 1e-9;
+  for (uint32_t s = 0; s < slots_.size(); ++s) {
+    Landmark& l = slots_[s];
+    if (l.state == LandmarkState::kConfirmed) {
+      if (l.consecutive_misses > options_.max_confirmed_misses) {
+        releaseSlot(s, report);
+        continue;
+      }
+      if (options_.refine && associated_[s] && l.n_obs >= 2 * std::max(1, l.obs_at_last_refine)) {
+        RefineOptions ro;
+        ro.pixel_sigma_px = options_.pixel_sigma_px;
+        ro.disparity_sigma_px = options_.disparity_sigma_px;
+        ro.huber = options_.refine_huber;
+        if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
+        l.obs_at_last_refine = l.n_obs;
+      }
+      continue;
+    }
+    if (l.state != LandmarkState::kCandidate) continue;
+    if (l.frames_out_of_view > options_.max_frames_out_of_view ||
+        l.consecutive_misses > options_.max_consecutive_misses) {
+      releaseSlot(s, report);
+      continue;
+    }
+    bool confirm_now = false;
+    bool prune_now = false;
+    switch (options_.policy) {
+      case Policy::kConsistency: {
+        if (l.confidence < options_.prune_prob && l.path_at_last_evidence_m > 0.0) {
+          prune_now = true;
+        } else {
+          confirm_now = (l.verified || l.rivals_at_creation == 1) && l.confidence >= options_.confirm_prob &&
+                        l.n_obs >= options_.min_observations;
+        }
+        break;
+      }
+      case Policy::kWtaLrc:
+        confirm_now = true;  // accepted at once (seeding keeps only LR-consistent best matches)
+        break;
+      case Policy::kSeenCount: {
+        const double age_s = t_s - static_cast<double>(l.first_t_ns) * 1e-9;
+        l.confidence = std::min(1.0f, static_cast<float>(l.n_obs) / static_cast<float>(options_.seen_count_min));
+        if (l.n_obs >= options_.seen_count_min && age_s <= options_.seen_count_window_s) {
+          confirm_now = true;
+        } else if (age_s > options_.seen_count_window_s) {
+          prune_now = true;
+        }
+        break;
+      }
+      case Policy::kCulling: {
+        const float ratio = static_cast<float>(l.n_obs) / static_cast<float>(std::max(1, l.n_visible));
+        l.confidence = std::min(1.0f, ratio);
+        if (frame_ - l.first_frame >= options_.culling_decision_frames) {
+          if (ratio >= options_.culling_min_found_ratio && l.n_obs >= options_.culling_min_observations) {
+            confirm_now = true;
+          } else {
+            prune_now = true;
+          }
+        }
+        break;
+      }
+      case Policy::kInlierRatio: {
+        const float ratio = l.svo_a / (l.svo_a + l.svo_b);
+        l.confidence = ratio;
+        if (ratio < options_.svo_prune_inlier_ratio) {
+          prune_now = true;
+        } else if (std::sqrt(l.svo_sigma2) < options_.svo_converged_sigma_fraction * l.svo_range &&
+                   ratio >= options_.svo_min_inlier_ratio) {
+          confirm_now = true;
+        }
+        break;
+      }
+    }
+    if (prune_now) {
+      releaseSlot(s, report);
+    } else if (confirm_now) {
+      confirm(s, report);
+    }
+  }
+}
+
+void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
+  Landmark& l = slots_[slot];
+  if (options_.policy == Policy::kConsistency && l.group != 0) {
+    // At most one hypothesis of a corner is real: confirming one retires its rivals.
+    const RivalGroup g = groups_[l.group - 1];
+    for (int i = 0; i < g.count; ++i) {
+      if (g.members[i] != slot && slots_[g.members[i]].state == LandmarkState::kCandidate) {
+        releaseSlot(g.members[i], report);
+      }
+    }
+  }
+  removeFromGroup(slot);
+  l.state = LandmarkState::kConfirmed;
+  l.confirmed_frame = frame_;
+  --num_candidates_;
+  ++num_confirmed_;
+  ++report->confirmed;
+  if (options_.refine && l.observations.size() >= 2) {
+    RefineOptions ro;
+    ro.pixel_sigma_px = options_.pixel_sigma_px;
+    ro.disparity_sigma_px = options_.disparity_sigma_px;
+    ro.huber = options_.refine_huber;
+    if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
+  }
+  l.obs_at_last_refine = l.n_obs;
+}
+
+void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
+  const double fb = rig_.fx_px * rig_.baseline_m;
+  for (uint32_t pi = 0; pi < hyps.points.size(); ++pi) {
+    const SalientPoint& point = hyps.points[pi];
+    if (point.num_hypotheses == 0) continue;
+    bool explained = false;
+    for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
+      if (report->hypothesis_landmark[point.first_hypothesis + k] >= 0) explained = true;
+    }
+    if (explained) continue;  // tracked by an existing landmark: not seeded again
+    uint32_t chosen[RivalGroup::kMaxMembers];
+    int n = 0;
+    for (uint32_t k = 0; k < point.num_hypotheses && n < RivalGroup::kMaxMembers; ++k) {
+      const uint32_t j = point.first_hypothesis + k;
+      const DisparityHypothesis& h = hyps.hypotheses[j];
+      if (!(h.d_px > 0.0f) || fb / h.d_px < options_.min_depth_m) continue;
+      if (options_.policy == Policy::kWtaLrc && (h.rank != 0 || !h.lr_consistent)) continue;
+      chosen[n++] = j;
+    }
+    if (n == 0) continue;
+    double weight_sum = 0.0;
+    for (int i = 0; i < n; ++i) weight_sum += hyps.hypotheses[chosen[i]].lr_consistent ? 2.0 : 1.0;
+    const uint32_t g = options_.policy == Policy::kConsistency ? allocateGroup() + 1 : 0;
+    if (g != 0) groups_[g - 1].none_mass = 1.0 - options_.prior_real;
+    for (int i = 0; i < n; ++i) {
+      const DisparityHypothesis& h = hyps.hypotheses[chosen[i]];
+      const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(point.corner.u_px, point.corner.v_px), h.d_px);
+      const uint32_t slot = allocateSlot();
+      Landmark& l = slots_[slot];
+      l.state = LandmarkState::kCandidate;
+      ++num_candidates_;
+      l.p_w = T_w_cl_ * *p_cl;
+      l.p_w_last = l.p_w;
+      l.anchor.frame = frame_;
+      l.anchor.u_px = static_cast<float>(point.corner.u_px);
+      l.anchor.v_px = static_cast<float>(point.corner.v_px);
+      l.anchor.d_px = h.d_px;
+      l.anchor.odom_pose = pose_;
+      l.observations.push_back(l.anchor);
+      l.first_frame = l.last_seen_frame = frame_;
+      l.first_t_ns = t_ns_;
+      l.path_at_last_seen_m = l.path_at_last_evidence_m = l.path_at_anchor_m = path_m_;
+      l.turn_at_anchor_rad = turn_rad_;
+      l.turn_at_last_seen_rad = turn_rad_;
+      l.n_obs = 1;
+      l.n_visible = 1;
+      l.rivals_at_creation = static_cast<uint8_t>(n);
+      l.prior = static_cast<float>(options_.prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);
+      l.confidence = l.prior;
+      l.svo_range = static_cast<float>(1.0 / options_.min_depth_m);
+      l.svo_mu = static_cast<float>(1.0 / p_cl->z());
+      l.svo_sigma2 = l.svo_range * l.svo_range / 36.0f;
+      if (g != 0) {
+        RivalGroup& group = groups_[g - 1];
+        group.members[group.count++] = slot;
+        l.group = g;
+      }
+      report->hypothesis_landmark[chosen[i]] = static_cast<int32_t>(slot);
+      report->created_slots.push_back(slot);
+      report->created_hypotheses.push_back(chosen[i]);
+      ++report->seeded;
+      if (options_.policy == Policy::kWtaLrc) confirm(slot, report);
+    }
+  }
+}
+
+void LandmarkDatabase::enforceCaps(FrameReport* report) {
+  if (num_confirmed_ > options_.max_confirmed) {
+    std::vector<std::pair<int32_t, uint32_t>> order;  // (last seen frame, slot)
+    order.reserve(static_cast<size_t>(num_confirmed_));
+    for (uint32_t s = 0; s < slots_.size(); ++s) {
+      if (slots_[s].state == LandmarkState::kConfirmed) order.emplace_back(slots_[s].last_seen_frame, s);
+    }
+    const size_t excess = order.size() - static_cast<size_t>(options_.max_confirmed);
+    std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(excess), order.end());
+    for (size_t i = 0; i < excess; ++i) releaseSlot(order[i].second, report);
+  }
+  if (num_candidates_ <= options_.max_candidates) return;
+  std::vector<std::pair<float, uint32_t>> order;
+  order.reserve(static_cast<size_t>(num_candidates_));
+  for (uint32_t s = 0; s < slots_.size(); ++s) {
+    if (slots_[s].state == LandmarkState::kCandidate) order.emplace_back(slots_[s].confidence, s);
+  }
+  const size_t excess = order.size() - static_cast<size_t>(options_.max_candidates);
+  std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(excess), order.end());
+  for (size_t i = 0; i < excess; ++i) releaseSlot(order[i].second, report);
+}
+
+}  // namespace twocam::landmarks

@@ -1,0 +1,199 @@
+#pragma once
+/// The landmark database (Paper A §5.5, "spurious matching"): every stereo hypothesis becomes a
+/// candidate 3D landmark; wheel odometry predicts where each should reappear; hits, misses and
+/// rivalry between hypotheses of the same corner decide which ones are confirmed.
+/// Model, parameters and their defaults: docs/landmarks.md.
+///
+/// Frames: w = odometry world frame (equals the true world at the first frame), b = robot body,
+/// cl = left camera optical frame. A landmark's position p_w is in the odometry world frame.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "common/features.h"
+#include "common/frames.h"
+#include "common/rig.h"
+#include "common/status.h"
+#include "landmarks/options.h"
+
+namespace twocam::landmarks {
+
+/// One associated stereo measurement of a landmark, with the odometry pose of its frame.
+struct Observation {
+  int32_t frame = 0;
+  float u_px = 0.0f;
+  float v_px = 0.0f;
+  float d_px = 0.0f;
+  Pose2 odom_pose;
+};
+
+enum class LandmarkState : uint8_t { kFree, kCandidate, kConfirmed };
+
+/// A landmark as the database keeps it. Plain data; read through LandmarkDatabase::landmarks().
+struct Landmark {
+  uint64_t id = 0;
+  LandmarkState state = LandmarkState::kFree;
+  /// Position estimate in the odometry world frame [m]: the anchor's triangulation until the
+  /// landmark is confirmed, then the multi-view refinement.
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();
+  /// Position from the latest observation [m]; predictions start here so that only the odometry
+  /// error since the landmark was last seen enters the gate.
+  Eigen::Vector3d p_w_last = Eigen::Vector3d::Zero();
+  /// The observation that created the landmark (frames counted from 0 in log order).
+  Observation anchor;
+  int32_t first_frame = 0;
+  int32_t confirmed_frame = -1;
+  int32_t last_seen_frame = 0;
+  int64_t first_t_ns = 0;
+  /// Odometry path length and absolute turn (since the run started) when last seen and when
+  /// evidence was last counted [m], [rad].
+  double path_at_last_seen_m = 0.0;
+  double turn_at_last_seen_rad = 0.0;
+  double path_at_last_evidence_m = 0.0;
+  double path_at_anchor_m = 0.0;
+  double turn_at_anchor_rad = 0.0;
+  /// Consistency policy: a re-observation has agreed with the anchor after motion that would
+  /// have exposed a rival depth (see checkAgainstAnchor).
+  bool verified = false;
+  /// Number of hypotheses of the corner when the candidate was created (1 = no rivals).
+  uint8_t rivals_at_creation = 1;
+  /// Rival group (hypotheses of the same corner in the creating frame) and this member's prior.
+  uint32_t group = 0;
+  float prior = 0.0f;
+  /// Accumulated evidence log-likelihood ratio (consistency policy) [nats].
+  float evidence = 0.0f;
+  /// Policy-specific confidence in [0, 1] (consistency: rival-normalised existence probability).
+  float confidence = 0.0f;
+  int32_t n_obs = 0;
+  int32_t n_visible = 0;
+  int32_t consecutive_misses = 0;
+  int32_t frames_out_of_view = 0;
+  int32_t obs_at_last_refine = 0;
+  /// SVO seed (inlier-ratio policy): inverse depth along the anchor ray [1/m], its variance, the
+  /// Beta parameters and the inverse-depth range.
+  float svo_mu = 0.0f;
+  float svo_sigma2 = 0.0f;
+  float svo_a = 10.0f;
+  float svo_b = 10.0f;
+  float svo_range = 0.0f;
+  /// Anchor plus the most recent observations (at most LandmarkOptions::max_observations).
+  std::vector<Observation> observations;
+};
+
+/// What happened in one update.
+struct FrameReport {
+  int32_t frame = 0;
+  int hypotheses = 0;
+  int predicted_visible = 0;
+  int associated = 0;
+  int seeded = 0;
+  int confirmed = 0;
+  int pruned = 0;
+  int refined = 0;
+  /// Slots of the landmarks created this frame (read their anchors through landmarks()) and,
+  /// in parallel, the index of the hypothesis each was seeded from.
+  std::vector<uint32_t> created_slots;
+  std::vector<uint32_t> created_hypotheses;
+  /// Ids of the landmarks removed this frame.
+  std::vector<uint64_t> removed_ids;
+  /// Per input hypothesis: slot of the landmark it was associated with or seeded into, or -1.
+  /// An associated landmark may still have been removed later in the same update (removed_ids).
+  std::vector<int32_t> hypothesis_landmark;
+};
+
+/// The database: candidates and confirmed landmarks with their confidence. State only; the maths
+/// (prediction, gating, evidence, refinement) are free functions in landmark_model.h and refine.h.
+class LandmarkDatabase {
+ public:
+  /// CHECK-fails on an invalid rig or options (validate them first: a programmer error here).
+  LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options);
+
+  /// Processes one stereo frame: predicts every live landmark with the odometry pose, associates,
+  /// scores, confirms, refines, prunes and seeds new candidates from the unexplained hypotheses.
+  /// `frame` counts from 0 in log order and must increase; t_ns must not go backwards.
+  /// Returns an error, leaving the database unchanged, for a non-finite pose, a frame index or
+  /// time stamp that goes backwards, or hypotheses that reference missing points.
+  Status update(int32_t frame,
+                int64_t t_ns,
+                const Pose2& odom_pose,
+                const StereoHypotheses& hypotheses,
+                FrameReport* report);
+
+  /// All slots; skip those in state kFree.
+  [[nodiscard]] const std::vector<Landmark>& landmarks() const { return slots_; }
+  [[nodiscard]] int numCandidates() const { return num_candidates_; }
+  [[nodiscard]] int numConfirmed() const { return num_confirmed_; }
+  [[nodiscard]] const LandmarkOptions& options() const { return options_; }
+  [[nodiscard]] const StereoRig& rig() const { return rig_; }
+
+ private:
+  struct RivalGroup {
+    static constexpr int kMaxMembers = 8;
+    uint32_t members[kMaxMembers] = {};
+    uint8_t count = 0;
+    /// Mass of members that left the group (pi_j exp(L_j)) and of "none is real".
+    double removed_mass = 0.0;
+    double none_mass = 0.0;
+  };
+  struct Prediction {
+    uint32_t slot;
+    float u, v, d;
+    float inv_var_u, inv_var_v, inv_var_d;
+    float gate_u, gate_v;
+    float p_false_hit_per_hyp;
+  };
+
+  uint32_t allocateSlot();
+  void releaseSlot(uint32_t slot, FrameReport* report);
+  uint32_t allocateGroup();
+  void removeFromGroup(uint32_t slot);
+  void normaliseGroup(uint32_t group);
+  void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
+  void associate(const StereoHypotheses& hyps, FrameReport* report);
+  /// Returns false when the observation contradicts the candidate's anchor (not recorded).
+  bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
+  void scoreAndLifeCycle(FrameReport* report);
+  void confirm(uint32_t slot, FrameReport* report);
+  void seed(const StereoHypotheses& hyps, FrameReport* report);
+  void enforceCaps(FrameReport* report);
+
+  StereoRig rig_;
+  LandmarkOptions options_;
+  Eigen::Isometry3d T_b_cl_;
+  std::vector<Landmark> slots_;
+  std::vector<uint32_t> free_slots_;
+  std::vector<RivalGroup> groups_;
+  std::vector<uint32_t> free_groups_;
+  uint64_t next_id_ = 1;
+  int num_candidates_ = 0;
+  int num_confirmed_ = 0;
+
+  // Per-frame state, kept between frames so that capacity is reused.
+  int32_t frame_ = -1;
+  int64_t t_ns_ = 0;
+  bool has_previous_ = false;
+  Pose2 pose_;
+  Eigen::Isometry3d T_w_cl_ = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_cl_w_ = Eigen::Isometry3d::Identity();
+  double path_m_ = 0.0;
+  double turn_rad_ = 0.0;
+  std::vector<Prediction> predictions_;
+  std::vector<uint8_t> visible_;     // per slot, this frame
+  std::vector<uint8_t> associated_;  // per slot, this frame
+  std::vector<uint8_t> contradicted_;  // per slot, this frame: the hit disagreed with the anchor
+  std::vector<uint8_t> informative_;   // per slot, this frame: the motion since the anchor exposes depth
+  std::vector<int32_t> hyp_claim_;   // per hypothesis: prediction index, or -1
+  std::vector<float> hyp_claim_d2_;
+  std::vector<int32_t> grid_start_;
+  std::vector<int32_t> grid_items_;
+  std::vector<uint32_t> groups_touched_;
+  std::vector<uint8_t> group_touched_flag_;
+  int grid_cols_ = 0;
+  int grid_rows_ = 0;
+  double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
+};
+
+}  // namespace twocam::landmarks

@@ -1,0 +1,158 @@
+#pragma once
+/// Options of the landmark database: the odometry noise model used for gating, the confidence
+/// model of the `consistency` policy, the baseline policies' rules and the life-cycle limits.
+/// The model and the reasons for every default are written down in docs/landmarks.md.
+
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+
+namespace twocam::landmarks {
+
+/// How a candidate earns its confirmation. `kConsistency` is TwoCam's own; the others are the
+/// baselines of the landmark-confidence experiments, run on the same frontend output and the same
+/// prediction/association machinery so that only the rule differs.
+enum class Policy {
+  kConsistency,  ///< log-odds existence from hits/misses under odometry motion, rival-normalised
+  kWtaLrc,       ///< best SAD with a left-right check, accepted at once
+  kSeenCount,    ///< MRPT CLandmarksMap rule: seen at least twice within 4 s
+  kCulling,      ///< ORB-SLAM map point culling: found/visible >= 0.25 with >= 3 observations
+  kInlierRatio,  ///< SVO depth seed: Gaussian inverse depth with a Beta inlier ratio
+};
+
+/// Names used on the command line: consistency, wta-lrc, seen-count, culling, inlier-ratio.
+const char* policyName(Policy policy);
+Status parsePolicy(const std::string& name, Policy* policy);
+const std::vector<Policy>& allPolicies();
+
+struct LandmarkOptions {
+  Policy policy = Policy::kConsistency;
+
+  // ---- Odometry noise model for gating (same form as the simulator's wheel model) ----------------
+  /// Random translation error [m / sqrt(m)] of the distance driven since a landmark was last seen.
+  /// Default 0.03: 1.5x the office world's 0.02, because the database does not know the robot's
+  /// true noise and a gate that is too narrow loses real landmarks.
+  double odom_trans_sigma_per_sqrt_m = 0.03;
+  /// Systematic relative error of the distance [-] (wheel radius error). Office world: 0.01.
+  double odom_trans_scale_sigma = 0.015;
+  /// Random heading error [rad / sqrt(rad)] of the angle turned. Office world: 0.03.
+  double odom_rot_sigma_per_sqrt_rad = 0.045;
+  /// Systematic relative heading error [-] (wheel base error). Office world: 0.01.
+  double odom_rot_scale_sigma = 0.015;
+  /// Heading error accumulated per metre driven even without turning [rad / m]: unequal wheel
+  /// radii make the robot curve slightly. Not in the simulated model; 2 mrad/m is typical.
+  double odom_rot_sigma_per_m = 0.002;
+
+  // ---- Stereo / pixel noise ----------------------------------------------------------------------
+  /// Corner localisation noise [px] (Harris at integer pixels: uniform +-0.5 has sigma 0.29;
+  /// 0.5 also covers rig vibration).
+  double pixel_sigma_px = 0.5;
+  /// Disparity noise [px] of a sub-pixel SAD match.
+  double disparity_sigma_px = 0.5;
+  /// Gate on the squared Mahalanobis distance in (u, v, d): 11.34 is the 99 % quantile of
+  /// chi-square with 3 degrees of freedom.
+  double gate_chi2 = 11.34;
+  /// Predictions closer than this to the image edge count as not visible [px] (the frontend finds
+  /// no corners in its border).
+  double visibility_border_px = 8.0;
+  /// Landmarks nearer than this along the optical axis are not predicted [m].
+  double min_depth_m = 0.2;
+  /// Disparity search range of the frontend [px]; a prediction outside it cannot be observed.
+  double min_disparity_px = 0.0;
+  double max_disparity_px = 63.0;
+
+  // ---- consistency policy (docs/landmarks.md) ----------------------------------------------------
+  /// Prior probability that a salient point's hypotheses contain the real match [-]; it is split
+  /// among the rivals (LR-consistent ones count double).
+  double prior_real = 0.5;
+  /// Probability that a real, visible landmark is re-detected and matched in a frame [-]
+  /// (Harris repeatability between consecutive frames is about 0.7-0.9).
+  double detection_prob = 0.75;
+  /// Evidence of one hit is log(detection_prob / p_false_hit), where p_false_hit is the chance
+  /// that some hypothesis falls into the gate by accident (hypothesis density x gate volume); it
+  /// is capped here [nats] because hits of one landmark are not independent (a spurious match on a
+  /// periodic texture reappears nearby for small motions).
+  double max_hit_evidence = 1.5;
+  /// Evidence of a re-observation that agrees with the anchor before the motion could expose a
+  /// wrong depth [nats]: it shows the corner is stable (not a one-frame noise response) but says
+  /// nothing about which rival is real, so it is small. Rivals gain it alike and normalisation
+  /// keeps them level; a lone hypothesis climbs on it.
+  double stability_evidence = 0.7;
+  /// Evidence is counted only after the robot has moved this far since the landmark's last
+  /// counted evidence [m]: without motion a spurious match reappears just like a real one.
+  double evidence_step_m = 0.04;
+  /// A candidate's re-observation is checked against its anchor: the anchor's triangulation,
+  /// moved by the odometry since the anchor frame, must predict the observed row and disparity
+  /// (both insensitive to heading errors, unlike the column) within this squared Mahalanobis
+  /// distance (9.21: 99 % of chi-square with 2 degrees of freedom).
+  double anchor_gate_chi2 = 9.21;
+  /// Evidence of a re-observation that contradicts the anchor [nats]: a real landmark does this
+  /// only on an outlier association (about 1 in 50), a spurious one as soon as the motion exposes
+  /// its wrong depth (about 1 in 2): log(0.02 / 0.5) = -3.2.
+  double contradiction_evidence = -3.2;
+  /// Confirmation: existence probability at least this [-] ...
+  double confirm_prob = 0.97;
+  /// ... and, for a candidate that had rivals when it was created, enough motion since the anchor
+  /// that a spurious match would have been exposed (a lone hypothesis needs only stability): if
+  /// the real point were on the anchor ray at disparity d +- max(verify_min_offset_px,
+  /// verify_relative_offset * d), a periodic-texture phantom of it would now be predicted at a
+  /// squared Mahalanobis distance of at least verify_chi2 from the candidate's own prediction.
+  /// Rival minima of a SAD curve lie at least 2 px apart (the frontend's minimum separation),
+  /// hence 2 px; 0.2 d (a 20 % depth change) keeps near points, where 2 px is a tiny depth
+  /// change, confirmable within a metre of travel; 16 (4 sigma) puts such a phantom well outside
+  /// the 3-sigma anchor gate, so it has been contradicted rather than merely not confirmed.
+  double verify_min_offset_px = 2.0;
+  double verify_relative_offset = 0.2;
+  double verify_chi2 = 16.0;
+  /// ... and at least this many observations [-].
+  int min_observations = 4;
+  /// Candidates whose probability falls below this are pruned [-].
+  double prune_prob = 0.02;
+
+  // ---- baselines -----------------------------------------------------------------------------------
+  /// seen-count: observations needed and the window they must fall into [s] (MRPT CLandmarksMap).
+  int seen_count_min = 2;
+  double seen_count_window_s = 4.0;
+  /// culling: minimum found/visible ratio and observations (ORB-SLAM MapPointCulling), and the
+  /// number of frames after creation at which the rule is applied.
+  double culling_min_found_ratio = 0.25;
+  int culling_min_observations = 3;
+  int culling_decision_frames = 3;
+  /// inlier-ratio: SVO seed convergence when the inverse-depth sigma falls below this fraction of
+  /// the seed's inverse-depth range, and the inlier ratio a / (a + b) at least the threshold.
+  double svo_converged_sigma_fraction = 1.0 / 200.0;
+  double svo_min_inlier_ratio = 0.6;
+  /// SVO seeds whose inlier ratio falls below this are dropped.
+  double svo_prune_inlier_ratio = 0.1;
+
+  // ---- life cycle ----------------------------------------------------------------------------------
+  /// A candidate predicted visible but not associated for this many consecutive frames is
+  /// dropped (all policies) [-].
+  int max_consecutive_misses = 8;
+  /// A confirmed landmark predicted visible but not seen for this many consecutive frames is
+  /// retired [-]: odometry drift has moved it away from where its corner now appears (which is
+  /// then confirmed afresh), or it was wrong. 45 frames = 3 s at 15 Hz. Without this a robot
+  /// that revisits a place grows its map on every visit.
+  int max_confirmed_misses = 45;
+  /// A candidate not predicted visible for this many frames is dropped; confirmed landmarks are
+  /// kept when they leave the view [-].
+  int max_frames_out_of_view = 5;
+  /// Hard cap on confirmed landmarks; the least recently seen are dropped first [-]. With odometry
+  /// drift a robot that keeps revisiting places re-confirms their corners in the drifted frame,
+  /// so only a cap bounds memory on endless runs (about 1.2 kB per landmark: 60 MB here).
+  int max_confirmed = 50000;
+  /// Hard cap on live candidates; the least confident are dropped first [-].
+  int max_candidates = 20000;
+  /// Observations kept per landmark for refinement: the anchor plus the most recent ones [-].
+  int max_observations = 24;
+  /// Confirmed landmarks are re-refined when their observation count reaches twice the count at
+  /// the previous refinement (bounded cost) [-].
+  bool refine = true;
+  /// Huber loss scale of the refinement residuals, in units of their sigma [-].
+  double refine_huber = 1.0;
+
+  [[nodiscard]] Status validate() const;
+};
+
+}  // namespace twocam::landmarks
