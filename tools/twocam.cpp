@@ -5,6 +5,8 @@
 #include <CLI/CLI.hpp>
 
 #include "simulate_command.h"
+#include "stereo_eval_command.h"
+#include "run_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"TwoCam: stereo landmark mapping for mobile robots (simulator, frontend, landmarks, mapping)"};
@@ -21,6 +23,33 @@ int main(int argc, char** argv) {
   simulate->add_option("--preview-dir", sim.preview_dir, "Folder for contact sheet, trajectory CSV and timing (default <stem>_preview)");
   simulate->add_flag("-q,--quiet", sim.quiet, "No progress bar");
 
+  twocam::tools::StereoEvalArgs se;
+  double se_gt_invalid = 0.0;
+  auto* stereo_eval = app.add_subcommand("stereo-eval", "Evaluate 1-D SAD stereo on one rectified pair against ground-truth disparities");
+  stereo_eval->add_option("--left", se.left_path, "Left image (8-bit grey or colour)")->required();
+  stereo_eval->add_option("--right", se.right_path, "Right image")->required();
+  stereo_eval->add_option("--gt", se.gt_path, "Ground-truth disparity of the left view: 8/16-bit PNG/PGM (value / scale) or PFM")->required();
+  stereo_eval->add_option("--gt-scale", se.gt_scale, "Disparity = stored value / scale (PFM: 1)")->required();
+  auto* gt_invalid_opt = stereo_eval->add_option("--gt-invalid", se_gt_invalid, "Stored value meaning 'no ground truth' (default 0 for integer files; PFM: inf)");
+  stereo_eval->add_option("--mask", se.mask_path, "Evaluate only pixels whose mask value is 255");
+  stereo_eval->add_option("--border", se.border_px, "Ignore this many pixels at every image edge");
+  stereo_eval->add_option("--max-disp", se.max_disp, "Largest disparity searched [px]")->required();
+  stereo_eval->add_option("--mode", se.mode, "dense (every pixel, with post-processing) or salient (Harris corners, several hypotheses)")->required();
+  stereo_eval->add_option("-o,--output", se.output_json, "Write the metrics as JSON");
+  stereo_eval->add_option("--image", se.output_image, "Write a picture of disparities and errors (PNG)");
+  stereo_eval->add_option("--window", se.window_px, "Window width [px] (default: dense 7, salient 11)");
+  stereo_eval->add_option("--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
+
+  twocam::tools::RunArgs run;
+  int run_frames = 0;
+  auto* run_cmd = app.add_subcommand("run", "Run the frontend and the landmark database over a log; write metrics.json and landmarks.csv");
+  run_cmd->add_option("log", run.log_path, "Input rawlog (TwoCam's own or any MRPT rawlog with stereo images and odometry)")->required();
+  run_cmd->add_option("-o,--output", run.output_dir, "Output folder")->required();
+  run_cmd->add_option("--policy", run.policy, "Landmark confidence policy: consistency (default), wta-lrc, seen-count, culling, inlier-ratio");
+  run_cmd->add_option("--source", run.source, "Hypothesis source: sad (default) or pairing (Paper A)");
+  auto* run_frames_opt = run_cmd->add_option("--frames", run_frames, "Process at most this many frames");
+  run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -31,6 +60,14 @@ int main(int argc, char** argv) {
       if (frames_opt->count() > 0) sim.frames = sim_frames;
       if (seed_opt->count() > 0) sim.seed = sim_seed;
       return twocam::tools::runSimulate(sim);
+    }
+    if (run_cmd->parsed()) {
+      if (run_frames_opt->count() > 0) run.max_frames = run_frames;
+      return twocam::tools::runRun(run);
+    }
+    if (stereo_eval->parsed()) {
+      if (gt_invalid_opt->count() > 0) se.gt_invalid = se_gt_invalid;
+      return twocam::tools::runStereoEval(se);
     }
   } catch (const std::exception& e) {
     std::cerr << "twocam: error: " << e.what() << std::endl;

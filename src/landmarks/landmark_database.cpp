@@ -399,14 +399,6 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
         releaseSlot(s, report);
         continue;
       }
-      if (options_.refine && associated_[s] && l.n_obs >= 2 * std::max(1, l.obs_at_last_refine)) {
-        RefineOptions ro;
-        ro.pixel_sigma_px = options_.pixel_sigma_px;
-        ro.disparity_sigma_px = options_.disparity_sigma_px;
-        ro.huber = options_.refine_huber;
-        if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
-        l.obs_at_last_refine = l.n_obs;
-      }
       continue;
     }
     if (l.state != LandmarkState::kCandidate) continue;
@@ -491,12 +483,10 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   ++report->confirmed;
   if (options_.refine && l.observations.size() >= 2) {
     RefineOptions ro;
-    ro.pixel_sigma_px = options_.pixel_sigma_px;
     ro.disparity_sigma_px = options_.disparity_sigma_px;
     ro.huber = options_.refine_huber;
     if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
   }
-  l.obs_at_last_refine = l.n_obs;
 }
 
 void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {

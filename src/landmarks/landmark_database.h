@@ -71,7 +71,6 @@ struct Landmark {
   int32_t n_visible = 0;
   int32_t consecutive_misses = 0;
   int32_t frames_out_of_view = 0;
-  int32_t obs_at_last_refine = 0;
   /// SVO seed (inlier-ratio policy): inverse depth along the anchor ray [1/m], its variance, the
   /// Beta parameters and the inverse-depth range.
   float svo_mu = 0.0f;

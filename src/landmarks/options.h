@@ -146,8 +146,9 @@ struct LandmarkOptions {
   int max_candidates = 20000;
   /// Observations kept per landmark for refinement: the anchor plus the most recent ones [-].
   int max_observations = 24;
-  /// Confirmed landmarks are re-refined when their observation count reaches twice the count at
-  /// the previous refinement (bounded cost) [-].
+  /// Refine a landmark's depth with Ceres over its observations when it is confirmed. Confirmed
+  /// landmarks are not re-refined later: their associations are tracked without the anchor check,
+  /// and re-refining over them cost 7 points of precision on the office world (docs/landmarks.md).
   bool refine = true;
   /// Huber loss scale of the refinement residuals, in units of their sigma [-].
   double refine_huber = 1.0;

@@ -9,39 +9,37 @@
 namespace twocam::landmarks {
 namespace {
 
-/// Stereo reprojection residual of one observation; the camera pose is a constant.
-struct StereoResidual {
-  StereoResidual(const StereoRig& rig, const Eigen::Isometry3d& T_cl_w, const Observation& obs, const RefineOptions& o)
-      : R(T_cl_w.linear()),
-        t(T_cl_w.translation()),
-        fx(rig.fx_px),
-        fy(rig.fy_px),
-        cx(rig.cx_px),
-        cy(rig.cy_px),
+/// Disparity residual of one observation for a landmark parametrised by its disparity d_a in the
+/// anchor frame (on the anchor pixel's ray). T_ck_ca is a constant.
+struct AnchoredResidual {
+  AnchoredResidual(const StereoRig& rig,
+                   const Eigen::Isometry3d& T_ck_ca,
+                   const Observation& anchor,
+                   const Observation& obs,
+                   const RefineOptions& o)
+      : R(T_ck_ca.linear()),
+        t(T_ck_ca.translation()),
         fb(rig.fx_px * rig.baseline_m),
-        u(obs.u_px),
-        v(obs.v_px),
+        xa((anchor.u_px - rig.cx_px) / rig.fx_px),
+        ya((anchor.v_px - rig.cy_px) / rig.fy_px),
         d(obs.d_px),
-        inv_px(1.0 / o.pixel_sigma_px),
         inv_d(1.0 / o.disparity_sigma_px) {}
 
   template <typename T>
-  bool operator()(const T* const p_w, T* residual) const {
+  bool operator()(const T* const d_anchor, T* residual) const {
+    if (!(d_anchor[0] > T(1e-6))) return false;
+    const T z_a = T(fb) / d_anchor[0];
+    const T pa[3] = {T(xa) * z_a, T(ya) * z_a, z_a};
     T p[3];
-    for (int r = 0; r < 3; ++r) {
-      p[r] = T(R(r, 0)) * p_w[0] + T(R(r, 1)) * p_w[1] + T(R(r, 2)) * p_w[2] + T(t(r));
-    }
+    for (int r = 0; r < 3; ++r) p[r] = T(R(r, 0)) * pa[0] + T(R(r, 1)) * pa[1] + T(R(r, 2)) * pa[2] + T(t(r));
     if (!(p[2] > T(1e-6))) return false;
-    const T inv_z = T(1.0) / p[2];
-    residual[0] = (T(cx) + T(fx) * p[0] * inv_z - T(u)) * T(inv_px);
-    residual[1] = (T(cy) + T(fy) * p[1] * inv_z - T(v)) * T(inv_px);
-    residual[2] = (T(fb) * inv_z - T(d)) * T(inv_d);
+    residual[0] = (T(fb) / p[2] - T(d)) * T(inv_d);
     return true;
   }
 
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
-  double fx, fy, cx, cy, fb, u, v, d, inv_px, inv_d;
+  double fb, xa, ya, d, inv_d;
 };
 
 }  // namespace
@@ -53,38 +51,37 @@ RefineResult refineLandmark(const StereoRig& rig,
                             Eigen::Vector3d* p_w,
                             double* rms_sigma) {
   if (observations.size() < 2) return RefineResult::kTooFewObservations;
-  double x[3] = {p_w->x(), p_w->y(), p_w->z()};
+  const Observation& anchor = observations.front();
+  const Eigen::Isometry3d T_w_ca = cameraPoseInWorld(anchor.odom_pose, T_b_cl);
+  // Start from the current estimate's disparity in the anchor frame.
+  const Eigen::Vector3d p_ca = T_w_ca.inverse() * *p_w;
+  if (!(p_ca.z() > 0.0)) return RefineResult::kBehindCamera;
+  double d_anchor = rig.fx_px * rig.baseline_m / p_ca.z();
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   for (const Observation& obs : observations) {
-    const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(obs.odom_pose, T_b_cl).inverse();
-    const Eigen::Vector3d p_cl = T_cl_w * *p_w;
-    if (!(p_cl.z() > 0.0)) return RefineResult::kBehindCamera;
-    auto* cost = new ceres::AutoDiffCostFunction<StereoResidual, 3, 3>(new StereoResidual(rig, T_cl_w, obs, options));
-    problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber), x);
+    const Eigen::Isometry3d T_ck_ca = cameraPoseInWorld(obs.odom_pose, T_b_cl).inverse() * T_w_ca;
+    auto* cost = new ceres::AutoDiffCostFunction<AnchoredResidual, 1, 1>(
+        new AnchoredResidual(rig, T_ck_ca, anchor, obs, options));
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber), &d_anchor);
   }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.num_threads = 1;
   solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
-  if (summary.termination_type == ceres::FAILURE || !std::isfinite(x[0]) || !std::isfinite(x[1]) ||
-      !std::isfinite(x[2])) {
+  if (summary.termination_type == ceres::FAILURE || !std::isfinite(d_anchor) || !(d_anchor > 0.0)) {
     return RefineResult::kNoConvergence;
   }
-  const Eigen::Vector3d refined(x[0], x[1], x[2]);
-  for (const Observation& obs : observations) {
-    const Eigen::Vector3d p_cl = cameraPoseInWorld(obs.odom_pose, T_b_cl).inverse() * refined;
-    if (!(p_cl.z() > 0.0)) return RefineResult::kBehindCamera;
-  }
-  *p_w = refined;
+  const auto p = triangulateRectified(rig, Eigen::Vector2d(anchor.u_px, anchor.v_px), d_anchor);
+  if (!p) return RefineResult::kNoConvergence;
+  *p_w = T_w_ca * *p;
   if (rms_sigma != nullptr) {
-    *rms_sigma = std::sqrt(2.0 * summary.final_cost / (3.0 * static_cast<double>(observations.size())));
+    *rms_sigma = std::sqrt(2.0 * summary.final_cost / static_cast<double>(observations.size()));
   }
   return RefineResult::kOk;
 }

@@ -1,0 +1,181 @@
+#include "eval/landmark_metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "landmarks/landmark_model.h"
+
+namespace twocam::eval {
+namespace {
+
+/// A hypothesis or landmark is true within this disparity error [px] (METRICS.md).
+constexpr double kTruthTolPx = 1.0;
+/// Confidence thresholds of the calibration table.
+constexpr double kCalibrationThresholds[] = {0.0, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99};
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1) + 0.5)));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+double percent(int64_t num, int64_t den) {
+  return den > 0 ? 100.0 * static_cast<double>(num) / static_cast<double>(den) : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::string num(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream s;
+  s << std::setprecision(10) << v;
+  return s.str();
+}
+
+}  // namespace
+
+Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
+                                   const landmarks::FrameReport& report,
+                                   const landmarks::LandmarkDatabase& db,
+                                   const ImageF32& gt_depth) {
+  if (Status s = disparityFromDepth(gt_depth, rig_, &gt_); !s) return s;
+  const auto gt_at = [&](int u, int v, float* d, float* z) {
+    if (u < 0 || v < 0 || u >= gt_.d_px.width || v >= gt_.d_px.height || !gt_.valid(u, v)) return false;
+    *d = gt_.d_px(u, v);
+    *z = gt_depth(u, v);
+    return true;
+  };
+  for (const SalientPoint& p : hyps.points) {
+    float d_gt, z_gt;
+    const bool judged = gt_at(p.corner.u_px, p.corner.v_px, &d_gt, &z_gt);
+    hyp_total_ += p.num_hypotheses;
+    if (!judged) continue;
+    hyp_judged_ += p.num_hypotheses;
+    ++points_judged_;
+    points_hypotheses_ += p.num_hypotheses;
+    bool any = false;
+    bool best_wrong = p.num_hypotheses == 0;
+    for (uint32_t k = 0; k < p.num_hypotheses; ++k) {
+      const DisparityHypothesis& h = hyps.hypotheses[p.first_hypothesis + k];
+      const bool ok = std::abs(h.d_px - d_gt) <= kTruthTolPx;
+      hyp_true_ += ok ? 1 : 0;
+      any = any || ok;
+      if (h.rank == 0 && !ok) best_wrong = true;
+    }
+    points_recalled_ += any ? 1 : 0;
+    points_best_wrong_ += best_wrong ? 1 : 0;
+  }
+  for (uint64_t id : report.removed_ids) anchors_.erase(id);
+  for (uint32_t slot : report.created_slots) {
+    const landmarks::Landmark& l = db.landmarks()[slot];
+    AnchorTruth t;
+    t.valid = gt_at(static_cast<int>(l.anchor.u_px), static_cast<int>(l.anchor.v_px), &t.d_gt, &t.z_gt);
+    anchors_[l.id] = t;
+  }
+  return Status::ok();
+}
+
+int LandmarkEvaluator::verdict(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  if (it == anchors_.end() || !it->second.valid) return -1;
+  const Eigen::Isometry3d T_cl_w = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
+  Eigen::Vector3d uvd;
+  if (!landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd)) return 0;
+  const double reproj = std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px);
+  return reproj <= kTruthTolPx && std::abs(uvd.z() - it->second.d_gt) <= kTruthTolPx ? 1 : 0;
+}
+
+double LandmarkEvaluator::anchorDisparityGt(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  if (it == anchors_.end() || !it->second.valid) return std::numeric_limits<double>::quiet_NaN();
+  return it->second.d_gt;
+}
+
+double LandmarkEvaluator::errorM(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  if (it == anchors_.end() || !it->second.valid) return std::numeric_limits<double>::quiet_NaN();
+  const Eigen::Vector3d p_cl = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse() * l.p_w;
+  const Eigen::Vector3d ray((l.anchor.u_px - rig_.cx_px) / rig_.fx_px, (l.anchor.v_px - rig_.cy_px) / rig_.fy_px, 1.0);
+  return (p_cl - ray * static_cast<double>(it->second.z_gt)).norm();
+}
+
+LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db) const {
+  LandmarkMetrics m;
+  m.hypotheses_total = hyp_total_;
+  m.hypotheses_judged = hyp_judged_;
+  m.hypotheses_true_fraction =
+      hyp_judged_ > 0 ? static_cast<double>(hyp_true_) / static_cast<double>(hyp_judged_) : std::numeric_limits<double>::quiet_NaN();
+  m.frontend_recall_at_k = percent(points_recalled_, points_judged_);
+  m.frontend_bad1_best = percent(points_best_wrong_, points_judged_);
+  m.frontend_mean_hypotheses =
+      points_judged_ > 0 ? static_cast<double>(points_hypotheses_) / static_cast<double>(points_judged_) : 0.0;
+  std::vector<double> errors;
+  std::vector<double> frames_to_confirm;
+  std::vector<CalibrationRow> rows;
+  for (double t : kCalibrationThresholds) rows.push_back({t, 0, 0, 0.0});
+  for (const landmarks::Landmark& l : db.landmarks()) {
+    if (l.state == landmarks::LandmarkState::kFree) continue;
+    const int v = verdict(l);
+    if (v >= 0) {
+      for (CalibrationRow& r : rows) {
+        if (l.confidence >= r.threshold) {
+          ++r.landmarks;
+          r.correct += v;
+        }
+      }
+    }
+    if (l.state != landmarks::LandmarkState::kConfirmed) {
+      ++m.candidates;
+      continue;
+    }
+    ++m.confirmed;
+    frames_to_confirm.push_back(static_cast<double>(l.confirmed_frame - l.first_frame));
+    if (v < 0) {
+      ++m.unjudged_confirmed;
+      continue;
+    }
+    m.correct_confirmed += v;
+    errors.push_back(errorM(l));
+  }
+  m.precision = percent(m.correct_confirmed, m.confirmed - m.unjudged_confirmed);
+  m.median_error_m = quantile(errors, 0.5);
+  m.p90_error_m = quantile(errors, 0.9);
+  m.frames_to_confirm_median = quantile(frames_to_confirm, 0.5);
+  for (CalibrationRow& r : rows) r.precision = percent(r.correct, r.landmarks);
+  m.calibration = rows;
+  return m;
+}
+
+std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
+  std::ostringstream s;
+  const std::string i1 = indent + "  ";
+  const std::string i2 = indent + "    ";
+  s << "{\n";
+  s << i1 << "\"hypotheses\": {\"total\": " << m.hypotheses_total << ", \"judged\": " << m.hypotheses_judged
+    << ", \"true_fraction\": " << num(m.hypotheses_true_fraction) << "},\n";
+  s << i1 << "\"frontend\": {\"recall_at_k\": " << num(m.frontend_recall_at_k)
+    << ", \"bad1_best\": " << num(m.frontend_bad1_best) << ", \"mean_hypotheses\": " << num(m.frontend_mean_hypotheses)
+    << "},\n";
+  s << i1 << "\"landmarks\": {\n";
+  s << i2 << "\"precision\": " << num(m.precision) << ",\n";
+  s << i2 << "\"correct_confirmed\": " << m.correct_confirmed << ",\n";
+  s << i2 << "\"confirmed\": " << m.confirmed << ",\n";
+  s << i2 << "\"unjudged_confirmed\": " << m.unjudged_confirmed << ",\n";
+  s << i2 << "\"candidates\": " << m.candidates << ",\n";
+  s << i2 << "\"median_error_m\": " << num(m.median_error_m) << ",\n";
+  s << i2 << "\"p90_error_m\": " << num(m.p90_error_m) << ",\n";
+  s << i2 << "\"frames_to_confirm_median\": " << num(m.frames_to_confirm_median) << "\n";
+  s << i1 << "},\n";
+  s << i1 << "\"calibration\": [";
+  for (size_t k = 0; k < m.calibration.size(); ++k) {
+    const CalibrationRow& r = m.calibration[k];
+    s << (k ? ", " : "") << "{\"threshold\": " << num(r.threshold) << ", \"landmarks\": " << r.landmarks
+      << ", \"correct\": " << r.correct << ", \"precision\": " << num(r.precision) << "}";
+  }
+  s << "]\n" << indent << "}";
+  return s.str();
+}
+
+}  // namespace twocam::eval

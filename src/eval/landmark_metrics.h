@@ -1,0 +1,93 @@
+#pragma once
+/// Evaluation of a landmark run against the simulator's ground truth (../shared/METRICS.md,
+/// "Simulated runs"): hypothesis truth, landmark correctness at the anchor, errors, frames to
+/// confirm, and a confidence calibration table. Fed frame by frame beside the pipeline; it keeps
+/// only the anchor truth of live landmarks, so memory follows the database's.
+
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "common/features.h"
+#include "common/frames.h"
+#include "common/rig.h"
+#include "common/status.h"
+#include "eval/disparity_io.h"
+#include "landmarks/landmark_database.h"
+
+namespace twocam::eval {
+
+/// Precision of the landmarks whose confidence is at least a threshold.
+struct CalibrationRow {
+  double threshold = 0.0;
+  int64_t landmarks = 0;  ///< judged landmarks (confirmed or not) at or above the threshold
+  int64_t correct = 0;
+  double precision = 0.0;  ///< percent; NaN when there are none
+};
+
+struct LandmarkMetrics {
+  // hypotheses.*
+  int64_t hypotheses_total = 0;
+  int64_t hypotheses_judged = 0;  ///< with defined ground truth at their pixel
+  double hypotheses_true_fraction = 0.0;  ///< true / judged [0, 1]
+  // frontend.* (salient points: the best hypothesis and the first k)
+  double frontend_recall_at_k = 0.0;  ///< percent of judged points with a true hypothesis among all
+  double frontend_bad1_best = 0.0;    ///< percent of judged points whose best hypothesis is wrong
+  double frontend_mean_hypotheses = 0.0;
+  // landmarks.*
+  int64_t confirmed = 0;
+  int64_t correct_confirmed = 0;
+  int64_t unjudged_confirmed = 0;  ///< anchor pixel without defined ground truth (depth edge)
+  double precision = 0.0;          ///< percent of judged confirmed landmarks that are correct
+  double median_error_m = 0.0;
+  double p90_error_m = 0.0;
+  double frames_to_confirm_median = 0.0;
+  int64_t candidates = 0;
+  std::vector<CalibrationRow> calibration;
+};
+
+class LandmarkEvaluator {
+ public:
+  explicit LandmarkEvaluator(const StereoRig& rig) : rig_(rig) {}
+
+  /// Records the truth of this frame's hypotheses and of the landmarks created in it.
+  /// `gt_depth` is the left camera's ground-truth depth of this frame.
+  Status addFrame(const StereoHypotheses& hyps,
+                  const landmarks::FrameReport& report,
+                  const landmarks::LandmarkDatabase& db,
+                  const ImageF32& gt_depth);
+
+  /// Final metrics from the database's final state.
+  [[nodiscard]] LandmarkMetrics finish(const landmarks::LandmarkDatabase& db) const;
+
+  /// Ground-truth verdict of a landmark (for pictures and CSV): 1 correct, 0 wrong, -1 unjudged.
+  [[nodiscard]] int verdict(const landmarks::Landmark& l) const;
+  /// Ground-truth disparity at the landmark's anchor pixel [px] (NaN when unjudged).
+  [[nodiscard]] double anchorDisparityGt(const landmarks::Landmark& l) const;
+  /// Error of a landmark [m] (NaN when unjudged).
+  [[nodiscard]] double errorM(const landmarks::Landmark& l) const;
+
+ private:
+  struct AnchorTruth {
+    float d_gt = 0.0f;   ///< ground-truth disparity at the anchor pixel [px]
+    float z_gt = 0.0f;   ///< ground-truth depth at the anchor pixel [m]
+    bool valid = false;  ///< ground truth defined there
+  };
+  StereoRig rig_;
+  DisparityGroundTruth gt_;
+  std::unordered_map<uint64_t, AnchorTruth> anchors_;
+  int64_t hyp_total_ = 0;
+  int64_t hyp_judged_ = 0;
+  int64_t hyp_true_ = 0;
+  int64_t points_judged_ = 0;
+  int64_t points_recalled_ = 0;
+  int64_t points_best_wrong_ = 0;
+  int64_t points_hypotheses_ = 0;
+};
+
+/// JSON object with the METRICS.md keys, nested by prefix: {"hypotheses": {...},
+/// "landmarks": {...}, "frontend": {...}, "calibration": [...]}.
+std::string toJson(const LandmarkMetrics& metrics, const std::string& indent);
+
+}  // namespace twocam::eval

@@ -1,0 +1,289 @@
+#include "eval/stereo_metrics.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+namespace twocam::eval {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string sizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+Status checkGroundTruth(const DisparityGroundTruth& gt, const char* who) {
+  const ImageF32& d = gt.d_px;
+  if (d.width <= 0 || d.height <= 0 || d.data.size() != static_cast<size_t>(d.width) * d.height) {
+    return Status::error(std::string(who) + ": ground truth is empty or inconsistent");
+  }
+  if (gt.valid.width != d.width || gt.valid.height != d.height ||
+      gt.valid.data.size() != d.data.size()) {
+    return Status::error(std::string(who) + ": ground-truth valid mask is " +
+                         sizeText(gt.valid.width, gt.valid.height) + ", disparity is " +
+                         sizeText(d.width, d.height));
+  }
+  return Status::ok();
+}
+
+Status checkMask(const ImageU8* mask, const DisparityGroundTruth& gt, const char* who) {
+  if (mask == nullptr) return Status::ok();
+  if (mask->width != gt.d_px.width || mask->height != gt.d_px.height ||
+      mask->data.size() != gt.d_px.data.size()) {
+    return Status::error(std::string(who) + ": mask is " + sizeText(mask->width, mask->height) +
+                         ", ground truth is " + sizeText(gt.d_px.width, gt.d_px.height));
+  }
+  return Status::ok();
+}
+
+/// Whether (u, v) is evaluated: valid ground truth, inside the border frame and the mask.
+bool isEvaluated(const DisparityGroundTruth& gt, const ImageU8* mask, int border, int u, int v) {
+  const int w = gt.d_px.width;
+  const int h = gt.d_px.height;
+  if (u < border || v < border || u >= w - border || v >= h - border) return false;
+  if (gt.valid(u, v) == 0) return false;
+  return mask == nullptr || (*mask)(u, v) == 255;
+}
+
+double percent(int64_t count, int64_t total) {
+  return total > 0 ? 100.0 * static_cast<double>(count) / static_cast<double>(total) : kNaN;
+}
+
+/// Counters shared by both modes.
+struct ErrorTally {
+  int64_t evaluated = 0;
+  int64_t estimated = 0;
+  int64_t bad1 = 0;
+  int64_t bad2 = 0;
+  double abs_err_sum = 0.0;
+
+  void addEstimate(double abs_err, const StereoEvalOptions& o) {
+    ++estimated;
+    abs_err_sum += abs_err;
+    bad1 += abs_err > o.bad1_px ? 1 : 0;
+    bad2 += abs_err > o.bad2_px ? 1 : 0;
+  }
+
+  void fill(StereoMetrics* m) const {
+    m->evaluated = evaluated;
+    m->estimated = estimated;
+    m->bad1 = percent(bad1, evaluated);
+    m->bad2 = percent(bad2, evaluated);
+    m->density = percent(estimated, evaluated);
+    m->avgerr = estimated > 0 ? abs_err_sum / static_cast<double>(estimated) : kNaN;
+  }
+};
+
+void appendNumber(std::string* out, double value) {
+  if (!std::isfinite(value)) {
+    *out += "null";
+    return;
+  }
+  char buf[64];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), value, std::chars_format::fixed, 6);
+  // Huge values do not fit in fixed notation: fall back to the shortest round-trip form.
+  if (ec != std::errc()) {
+    const auto [end2, ec2] = std::to_chars(buf, buf + sizeof(buf), value);
+    TWOCAM_CHECK(ec2 == std::errc()) << "to_chars failed for " << value;
+    out->append(buf, end2);
+    return;
+  }
+  out->append(buf, end);
+}
+
+}  // namespace
+
+Status StereoEvalOptions::validate() const {
+  if (border_px < 0)
+    return Status::error("border_px = " + std::to_string(border_px) + "; must be >= 0");
+  if (!std::isfinite(bad1_px) || bad1_px < 0.0) {
+    return Status::error("bad1_px = " + std::to_string(bad1_px) + "; must be finite and >= 0");
+  }
+  if (!std::isfinite(bad2_px) || bad2_px < 0.0) {
+    return Status::error("bad2_px = " + std::to_string(bad2_px) + "; must be finite and >= 0");
+  }
+  if (k < 1) return Status::error("k = " + std::to_string(k) + "; must be >= 1");
+  if (!std::isfinite(recall_tol_px) || recall_tol_px < 0.0) {
+    return Status::error("recall_tol_px = " + std::to_string(recall_tol_px) +
+                         "; must be finite and >= 0");
+  }
+  return Status::ok();
+}
+
+Status evaluateDense(const ImageF32& disparity,
+                     const DisparityGroundTruth& gt,
+                     const ImageU8* mask,
+                     const StereoEvalOptions& options,
+                     StereoMetrics* metrics) {
+  constexpr const char* kWho = "evaluateDense";
+  if (Status s = options.validate(); !s)
+    return Status::error(std::string(kWho) + ": " + s.message());
+  if (Status s = checkGroundTruth(gt, kWho); !s) return s;
+  if (disparity.width != gt.d_px.width || disparity.height != gt.d_px.height ||
+      disparity.data.size() != gt.d_px.data.size()) {
+    return Status::error(std::string(kWho) + ": disparity is " +
+                         sizeText(disparity.width, disparity.height) + ", ground truth is " +
+                         sizeText(gt.d_px.width, gt.d_px.height));
+  }
+  if (Status s = checkMask(mask, gt, kWho); !s) return s;
+
+  ErrorTally tally;
+  int64_t recalled = 0;
+  for (int v = 0; v < gt.d_px.height; ++v) {
+    for (int u = 0; u < gt.d_px.width; ++u) {
+      if (!isEvaluated(gt, mask, options.border_px, u, v)) continue;
+      ++tally.evaluated;
+      const float d = disparity(u, v);
+      if (!(d >= 0.0f) || !std::isfinite(d)) continue;  // < 0 or NaN: no estimate
+      const double err = std::abs(static_cast<double>(d) - gt.d_px(u, v));
+      tally.addEstimate(err, options);
+      recalled += err <= options.recall_tol_px ? 1 : 0;
+    }
+  }
+  StereoMetrics m;
+  tally.fill(&m);
+  m.k = 1;
+  m.recall_at_k = percent(recalled, tally.evaluated);
+  m.recall_at_1 = m.recall_at_k;
+  m.mean_hypotheses = tally.evaluated > 0 ? static_cast<double>(tally.estimated) /
+                                                static_cast<double>(tally.evaluated)
+                                          : kNaN;
+  m.points = static_cast<int64_t>(disparity.width) * disparity.height;
+  *metrics = m;
+  return Status::ok();
+}
+
+Status evaluateSalient(const StereoHypotheses& hyps,
+                       const DisparityGroundTruth& gt,
+                       const ImageU8* mask,
+                       const StereoEvalOptions& options,
+                       StereoMetrics* metrics) {
+  constexpr const char* kWho = "evaluateSalient";
+  if (Status s = options.validate(); !s)
+    return Status::error(std::string(kWho) + ": " + s.message());
+  if (Status s = checkGroundTruth(gt, kWho); !s) return s;
+  if (Status s = checkMask(mask, gt, kWho); !s) return s;
+
+  ErrorTally tally;
+  int64_t recalled_k = 0;
+  int64_t recalled_1 = 0;
+  int64_t hypotheses_sum = 0;
+  const int w = gt.d_px.width;
+  const int h = gt.d_px.height;
+  for (size_t i = 0; i < hyps.points.size(); ++i) {
+    const SalientPoint& p = hyps.points[i];
+    const int u = p.corner.u_px;
+    const int v = p.corner.v_px;
+    if (u < 0 || v < 0 || u >= w || v >= h) {
+      return Status::error(std::string(kWho) + ": point " + std::to_string(i) + " at (" +
+                           std::to_string(u) + ", " + std::to_string(v) +
+                           ") is outside the ground truth's " + sizeText(w, h));
+    }
+    const uint64_t end = static_cast<uint64_t>(p.first_hypothesis) + p.num_hypotheses;
+    if (end > hyps.hypotheses.size()) {
+      return Status::error(std::string(kWho) + ": point " + std::to_string(i) +
+                           " names hypotheses up to " + std::to_string(end) + ", only " +
+                           std::to_string(hyps.hypotheses.size()) + " exist");
+    }
+    const DisparityHypothesis* best = nullptr;
+    bool any_within_k = false;
+    for (uint64_t j = p.first_hypothesis; j < end; ++j) {
+      const DisparityHypothesis& hyp = hyps.hypotheses[j];
+      if (hyp.point_index != i) {
+        return Status::error(std::string(kWho) + ": hypothesis " + std::to_string(j) +
+                             " has point_index " + std::to_string(hyp.point_index) +
+                             " but lies in point " + std::to_string(i) + "'s range");
+      }
+      if (hyp.rank == 0) {
+        if (best != nullptr) {
+          return Status::error(std::string(kWho) + ": point " + std::to_string(i) +
+                               " has two rank-0 hypotheses");
+        }
+        best = &hyp;
+      }
+      if (hyp.rank < options.k && std::isfinite(hyp.d_px) &&
+          std::abs(static_cast<double>(hyp.d_px) - gt.d_px(u, v)) <= options.recall_tol_px) {
+        any_within_k = true;
+      }
+    }
+    if (p.num_hypotheses > 0 && best == nullptr) {
+      return Status::error(std::string(kWho) + ": point " + std::to_string(i) +
+                           " has hypotheses but none of rank 0");
+    }
+    if (!isEvaluated(gt, mask, options.border_px, u, v)) continue;
+    ++tally.evaluated;
+    hypotheses_sum += p.num_hypotheses;
+    recalled_k += any_within_k ? 1 : 0;
+    if (best == nullptr || !std::isfinite(best->d_px)) continue;
+    const double err = std::abs(static_cast<double>(best->d_px) - gt.d_px(u, v));
+    recalled_1 += err <= options.recall_tol_px ? 1 : 0;
+    if (best->lr_consistent) tally.addEstimate(err, options);
+  }
+  StereoMetrics m;
+  tally.fill(&m);
+  m.k = options.k;
+  m.recall_at_k = percent(recalled_k, tally.evaluated);
+  m.recall_at_1 = percent(recalled_1, tally.evaluated);
+  m.mean_hypotheses = tally.evaluated > 0 ? static_cast<double>(hypotheses_sum) /
+                                                static_cast<double>(tally.evaluated)
+                                          : kNaN;
+  m.points = static_cast<int64_t>(hyps.points.size());
+  *metrics = m;
+  return Status::ok();
+}
+
+void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics) {
+  metrics->ms = ms;
+  const double mp = static_cast<double>(width_px) * static_cast<double>(height_px) / 1e6;
+  metrics->s_per_mp = width_px > 0 && height_px > 0 ? (ms / 1000.0) / mp : kNaN;
+}
+
+std::string toJson(const StereoMetrics& m, const std::string& indent) {
+  std::string out = "{\n";
+  bool first = true;
+  auto key = [&](const char* name) {
+    if (!first) out += ",\n";
+    first = false;
+    out += indent;
+    out += "  \"";
+    out += name;
+    out += "\": ";
+  };
+  auto number = [&](const char* name, double value) {
+    key(name);
+    appendNumber(&out, value);
+  };
+  auto integer = [&](const char* name, int64_t value) {
+    key(name);
+    out += std::to_string(value);
+  };
+  number("bad1", m.bad1);
+  number("bad2", m.bad2);
+  number("avgerr", m.avgerr);
+  number("density", m.density);
+  number("recall_at_k", m.recall_at_k);
+  integer("points", m.points);
+  number("ms", m.ms);
+  number("s_per_mp", m.s_per_mp);
+  integer("k", m.k);
+  number("recall_at_1", m.recall_at_1);
+  number("mean_hypotheses", m.mean_hypotheses);
+  integer("evaluated", m.evaluated);
+  integer("estimated", m.estimated);
+  out += "\n";
+  out += indent;
+  out += "}";
+  return out;
+}
+
+Status writeJson(const std::string& path, const StereoMetrics& metrics) {
+  std::ofstream f(path, std::ios::trunc);
+  if (!f) return Status::error(path + ": cannot open for writing");
+  f << toJson(metrics) << '\n';
+  f.flush();
+  if (!f) return Status::error(path + ": write failed");
+  return Status::ok();
+}
+
+}  // namespace twocam::eval

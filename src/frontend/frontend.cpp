@@ -1,0 +1,66 @@
+#include "frontend/frontend.h"
+
+#include <chrono>
+
+namespace twocam::frontend {
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+Status parseHypothesisSource(const std::string& name, HypothesisSource* source) {
+  if (name == "sad") {
+    *source = HypothesisSource::kSad;
+  } else if (name == "pairing") {
+    *source = HypothesisSource::kCornerPairing;
+  } else {
+    return Status::error("unknown hypothesis source '" + name + "'; expected sad or pairing");
+  }
+  return Status::ok();
+}
+
+const char* hypothesisSourceName(HypothesisSource source) {
+  return source == HypothesisSource::kSad ? "sad" : "pairing";
+}
+
+Status FrontendOptions::validate() const {
+  if (Status s = harris.validate(); !s) return Status::error("frontend.harris: " + s.message());
+  if (Status s = sad.validate(); !s) return Status::error("frontend.sad: " + s.message());
+  return Status::ok();
+}
+
+Frontend::Frontend(const FrontendOptions& options)
+    : options_(options), left_detector_(options.harris), right_detector_(options.harris) {
+  const Status s = options.validate();
+  TWOCAM_CHECK(s.isOk()) << s.message();
+}
+
+Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
+  TWOCAM_CHECK(out != nullptr);
+  if (frame.left.empty() || frame.right.empty()) return Status::error("stereo frame has an empty image");
+  if (frame.left.width != frame.right.width || frame.left.height != frame.right.height) {
+    return Status::error("left and right images differ in size (" + std::to_string(frame.left.width) + "x" +
+                         std::to_string(frame.left.height) + " vs " + std::to_string(frame.right.width) + "x" +
+                         std::to_string(frame.right.height) + ")");
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status s = left_detector_.detect(frame.left, &left_corners_); !s) return s;
+  if (options_.source == HypothesisSource::kCornerPairing) {
+    if (Status s = right_detector_.detect(frame.right, &right_corners_); !s) return s;
+  }
+  timing_.harris_ms = msSince(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  Status s = options_.source == HypothesisSource::kSad
+                 ? matchSalient(frame.left, frame.right, left_corners_, options_.sad, out)
+                 : pairCorners(frame.left, frame.right, left_corners_, right_corners_, options_.sad, out);
+  if (!s) return s;
+  out->t_ns = frame.t_ns;
+  timing_.matching_ms = msSince(t1);
+  timing_.total_ms = msSince(t0);
+  return Status::ok();
+}
+
+}  // namespace twocam::frontend

@@ -1,0 +1,67 @@
+#pragma once
+/// The frontend of one stereo stream: Harris corners in the left image, then disparity
+/// hypotheses at those corners, either by 1-D SAD along the scanline (Paper B, the default) or
+/// by pairing with the right image's corners (Paper A's spurious matching). Holds the detectors'
+/// adaptive thresholds and all scratch buffers, so a frame costs no allocation once warm.
+
+#include <string>
+#include <vector>
+
+#include "common/features.h"
+#include "common/frames.h"
+#include "common/status.h"
+#include "frontend/harris.h"
+#include "frontend/salient_sad.h"
+
+namespace twocam::frontend {
+
+enum class HypothesisSource {
+  kSad,            ///< 1-D SAD cost-curve minima at every left corner (Paper B)
+  kCornerPairing,  ///< every right corner in the search window (Paper A)
+};
+
+/// "sad" or "pairing".
+Status parseHypothesisSource(const std::string& name, HypothesisSource* source);
+const char* hypothesisSourceName(HypothesisSource source);
+
+struct FrontendOptions {
+  HarrisOptions harris;
+  SalientSadOptions sad;
+  /// Where hypotheses come from. SAD by default: it measures every disparity of the search range,
+  /// while pairing needs the right corner to be detected too (see docs/frontend.md for figures).
+  HypothesisSource source = HypothesisSource::kSad;
+
+  [[nodiscard]] Status validate() const;
+};
+
+/// Per-frame timings [ms] of the last process() call.
+struct FrontendTiming {
+  double harris_ms = 0.0;
+  double matching_ms = 0.0;
+  double total_ms = 0.0;
+};
+
+class Frontend {
+ public:
+  /// CHECK-fails on invalid options (validate them first).
+  explicit Frontend(const FrontendOptions& options);
+
+  /// Corners and hypotheses of one rectified frame; out->t_ns = frame.t_ns. Errors for empty or
+  /// differently sized images, or images too small for the detector and the matcher.
+  Status process(const StereoFrame& frame, StereoHypotheses* out);
+
+  /// Left corners of the last frame (the salient points, before the matcher dropped any).
+  [[nodiscard]] const std::vector<Corner>& corners() const { return left_corners_; }
+  [[nodiscard]] const FrontendTiming& timing() const { return timing_; }
+  [[nodiscard]] const FrontendOptions& options() const { return options_; }
+
+ private:
+  FrontendOptions options_;
+  HarrisDetector left_detector_;
+  HarrisDetector right_detector_;
+  std::vector<Corner> left_corners_;
+  std::vector<Corner> right_corners_;
+  FrontendTiming timing_;
+};
+
+}  // namespace twocam::frontend

@@ -1,0 +1,972 @@
+#include "frontend/salient_sad.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define TWOCAM_HAVE_AVX2_KERNEL 1
+#endif
+
+namespace twocam::frontend {
+namespace {
+
+constexpr int kMinWindow = 3;
+constexpr int kMaxWindow = 63;
+constexpr int kMaxDisparities = 256;
+constexpr int kMaxRowTolerance = 8;
+constexpr int kMaxHypothesesLimit = 255;
+/// Largest padded curve length: 256 is already a multiple of every kernel's vector width.
+constexpr int kMaxPadded = kMaxDisparities;
+/// Bytes a kernel may read from a strip: padded length + 2W - 2 (the fused shiftable
+/// windows span 2W - 1 columns), rounded up.
+constexpr int kStripCapacity = kMaxPadded + 2 * kMaxWindow;
+/// round(2^16 / W) turns the window-sum difference into a rounded mean difference without a
+/// division per disparity; |sum| <= 63 * 255 keeps the product inside int32.
+constexpr int kMeanShift = 16;
+
+int roundUp(int n, int multiple) { return (n + multiple - 1) / multiple * multiple; }
+
+int meanReciprocal(int w) { return ((1 << kMeanShift) + w / 2) / w; }
+
+/// round((sum_r - sum_l) / W) via the fixed-point reciprocal (arithmetic shift = floor).
+int16_t roundedMeanDiff(int sum_diff, int reciprocal) {
+  return static_cast<int16_t>((sum_diff * reciprocal + (1 << (kMeanShift - 1))) >> kMeanShift);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cost-curve kernels. Plain SAD is computed as prefix curves: outs[k][j] = sum over
+// i < ends[k] of |win[i] - strip[i + j]|, so one pass over 2W-1 offsets yields the left-,
+// centre- and right-aligned windows (differences of prefixes). Zero-mean SAD has its own
+// kernels: cost[j] = sum_i |win[i] - strip[i + j] + offsets[j]|.
+
+void prefixScalar(const uint8_t* win,
+                  const uint8_t* strip,
+                  int n,
+                  const int* ends,
+                  int num_ends,
+                  uint16_t* const* outs) {
+  uint16_t acc[kMaxPadded] = {};
+  int i = 0;
+  for (int k = 0; k < num_ends; ++k) {
+    for (; i < ends[k]; ++i) {
+      const int l = win[i];
+      const uint8_t* s = strip + i;
+      for (int j = 0; j < n; ++j) acc[j] = static_cast<uint16_t>(acc[j] + std::abs(l - s[j]));
+    }
+    std::copy(acc, acc + n, outs[k]);
+  }
+}
+
+void zeroMeanScalar(const uint8_t* win,
+                    int w,
+                    const uint8_t* strip,
+                    const int16_t* offsets,
+                    int n,
+                    uint16_t* cost) {
+  std::fill(cost, cost + n, uint16_t{0});
+  for (int i = 0; i < w; ++i) {
+    const int l = win[i];
+    const uint8_t* s = strip + i;
+    for (int j = 0; j < n; ++j) {
+      cost[j] = static_cast<uint16_t>(cost[j] + std::abs(l - s[j] + offsets[j]));
+    }
+  }
+}
+
+#if defined(__SSE2__)
+/// NC chunks of 16 disparities with the accumulators in registers; |a - b| of bytes by two
+/// saturating subtractions, widened to uint16 lanes (125 offsets x 255 < 2^15).
+template <int NC>
+inline void sse2PrefixGroup(const uint8_t* win,
+                            const uint8_t* strip,
+                            const int* ends,
+                            int num_ends,
+                            uint16_t* const* outs,
+                            int g) {
+  const __m128i zero = _mm_setzero_si128();
+  __m128i acc[2 * NC];
+  for (int c = 0; c < 2 * NC; ++c) acc[c] = zero;
+  int i = 0;
+  for (int k = 0; k < num_ends; ++k) {
+    for (; i < ends[k]; ++i) {
+      const __m128i b = _mm_set1_epi8(static_cast<char>(win[i]));
+      for (int c = 0; c < NC; ++c) {
+        const __m128i s =
+            _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c));  // NOLINT
+        const __m128i ad = _mm_or_si128(_mm_subs_epu8(s, b), _mm_subs_epu8(b, s));
+        acc[2 * c] = _mm_add_epi16(acc[2 * c], _mm_unpacklo_epi8(ad, zero));
+        acc[2 * c + 1] = _mm_add_epi16(acc[2 * c + 1], _mm_unpackhi_epi8(ad, zero));
+      }
+    }
+    for (int c = 0; c < 2 * NC; ++c) {
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(outs[k] + g + 8 * c), acc[c]);  // NOLINT
+    }
+  }
+}
+
+/// Zero-mean variant in int16 lanes: |l - s + offset| <= 510, times W <= 63 fits.
+template <int NC>
+inline void sse2ZeroMeanGroup(
+    const uint8_t* win, int w, const uint8_t* strip, const int16_t* offsets, uint16_t* cost) {
+  const __m128i zero = _mm_setzero_si128();
+  __m128i acc[2 * NC];
+  __m128i off[2 * NC];
+  for (int c = 0; c < 2 * NC; ++c) {
+    acc[c] = zero;
+    off[c] = _mm_loadu_si128(reinterpret_cast<const __m128i*>(offsets + 8 * c));  // NOLINT
+  }
+  for (int i = 0; i < w; ++i) {
+    const __m128i b = _mm_set1_epi16(static_cast<int16_t>(win[i]));
+    for (int c = 0; c < NC; ++c) {
+      const __m128i s =
+          _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c));  // NOLINT
+      __m128i t0 = _mm_sub_epi16(_mm_add_epi16(b, off[2 * c]), _mm_unpacklo_epi8(s, zero));
+      __m128i t1 = _mm_sub_epi16(_mm_add_epi16(b, off[2 * c + 1]), _mm_unpackhi_epi8(s, zero));
+      t0 = _mm_max_epi16(t0, _mm_sub_epi16(zero, t0));
+      t1 = _mm_max_epi16(t1, _mm_sub_epi16(zero, t1));
+      acc[2 * c] = _mm_add_epi16(acc[2 * c], t0);
+      acc[2 * c + 1] = _mm_add_epi16(acc[2 * c + 1], t1);
+    }
+  }
+  for (int c = 0; c < 2 * NC; ++c) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cost + 8 * c), acc[c]);  // NOLINT
+  }
+}
+
+void prefixSse2(const uint8_t* win,
+                const uint8_t* strip,
+                int n,
+                const int* ends,
+                int num_ends,
+                uint16_t* const* outs) {
+  const int padded = roundUp(n, 16);
+  for (int g = 0; g < padded; g += 64) {
+    const uint8_t* s = strip + g;
+    switch (std::min(4, (padded - g) / 16)) {
+      case 1: sse2PrefixGroup<1>(win, s, ends, num_ends, outs, g); break;
+      case 2: sse2PrefixGroup<2>(win, s, ends, num_ends, outs, g); break;
+      case 3: sse2PrefixGroup<3>(win, s, ends, num_ends, outs, g); break;
+      default: sse2PrefixGroup<4>(win, s, ends, num_ends, outs, g); break;
+    }
+  }
+}
+
+void zeroMeanSse2(const uint8_t* win,
+                  int w,
+                  const uint8_t* strip,
+                  const int16_t* offsets,
+                  int n,
+                  uint16_t* cost) {
+  const int padded = roundUp(n, 16);
+  for (int g = 0; g < padded; g += 64) {
+    const uint8_t* s = strip + g;
+    const int16_t* o = offsets + g;
+    switch (std::min(4, (padded - g) / 16)) {
+      case 1: sse2ZeroMeanGroup<1>(win, w, s, o, cost + g); break;
+      case 2: sse2ZeroMeanGroup<2>(win, w, s, o, cost + g); break;
+      case 3: sse2ZeroMeanGroup<3>(win, w, s, o, cost + g); break;
+      default: sse2ZeroMeanGroup<4>(win, w, s, o, cost + g); break;
+    }
+  }
+}
+#endif  // __SSE2__
+
+#if defined(TWOCAM_HAVE_AVX2_KERNEL)
+/// NC chunks of 32 disparities. unpacklo/hi work per 128-bit lane, so acc[2c] holds
+/// disparities 0-7 and 16-23 of the chunk, acc[2c+1] 8-15 and 24-31; the stores undo it.
+template <int NC>
+__attribute__((target("avx2"))) inline void avx2PrefixGroup(const uint8_t* win,
+                                                            const uint8_t* strip,
+                                                            const int* ends,
+                                                            int num_ends,
+                                                            uint16_t* const* outs,
+                                                            int g) {
+  const __m256i zero = _mm256_setzero_si256();
+  __m256i acc[2 * NC];
+  for (int c = 0; c < 2 * NC; ++c) acc[c] = zero;
+  int i = 0;
+  for (int k = 0; k < num_ends; ++k) {
+    for (; i < ends[k]; ++i) {
+      const __m256i b = _mm256_set1_epi8(static_cast<char>(win[i]));
+      for (int c = 0; c < NC; ++c) {
+        const __m256i s =
+            _mm256_loadu_si256(reinterpret_cast<const __m256i*>(strip + i + 32 * c));  // NOLINT
+        const __m256i ad = _mm256_sub_epi8(_mm256_max_epu8(s, b), _mm256_min_epu8(s, b));
+        acc[2 * c] = _mm256_add_epi16(acc[2 * c], _mm256_unpacklo_epi8(ad, zero));
+        acc[2 * c + 1] = _mm256_add_epi16(acc[2 * c + 1], _mm256_unpackhi_epi8(ad, zero));
+      }
+    }
+    for (int c = 0; c < NC; ++c) {
+      uint16_t* out = outs[k] + g + 32 * c;
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out),  // NOLINT
+                          _mm256_permute2x128_si256(acc[2 * c], acc[2 * c + 1], 0x20));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + 16),  // NOLINT
+                          _mm256_permute2x128_si256(acc[2 * c], acc[2 * c + 1], 0x31));
+    }
+  }
+}
+
+/// Zero-mean variant: NC chunks of 16 disparities, bytes zero-extended in order.
+template <int NC>
+__attribute__((target("avx2"))) inline void avx2ZeroMeanGroup(
+    const uint8_t* win, int w, const uint8_t* strip, const int16_t* offsets, uint16_t* cost) {
+  __m256i acc[NC];
+  __m256i off[NC];
+  for (int c = 0; c < NC; ++c) {
+    acc[c] = _mm256_setzero_si256();
+    off[c] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(offsets + 16 * c));  // NOLINT
+  }
+  for (int i = 0; i < w; ++i) {
+    const __m256i b = _mm256_set1_epi16(static_cast<int16_t>(win[i]));
+    for (int c = 0; c < NC; ++c) {
+      const __m256i s = _mm256_cvtepu8_epi16(
+          _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c)));  // NOLINT
+      const __m256i t = _mm256_sub_epi16(_mm256_add_epi16(b, off[c]), s);
+      acc[c] = _mm256_add_epi16(acc[c], _mm256_abs_epi16(t));
+    }
+  }
+  for (int c = 0; c < NC; ++c) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cost + 16 * c), acc[c]);  // NOLINT
+  }
+}
+
+__attribute__((target("avx2"))) void prefixAvx2(const uint8_t* win,
+                                                const uint8_t* strip,
+                                                int n,
+                                                const int* ends,
+                                                int num_ends,
+                                                uint16_t* const* outs) {
+  const int padded = roundUp(n, 32);
+  for (int g = 0; g < padded; g += 128) {
+    const uint8_t* s = strip + g;
+    switch (std::min(4, (padded - g) / 32)) {
+      case 1: avx2PrefixGroup<1>(win, s, ends, num_ends, outs, g); break;
+      case 2: avx2PrefixGroup<2>(win, s, ends, num_ends, outs, g); break;
+      case 3: avx2PrefixGroup<3>(win, s, ends, num_ends, outs, g); break;
+      default: avx2PrefixGroup<4>(win, s, ends, num_ends, outs, g); break;
+    }
+  }
+}
+
+__attribute__((target("avx2"))) void zeroMeanAvx2(const uint8_t* win,
+                                                  int w,
+                                                  const uint8_t* strip,
+                                                  const int16_t* offsets,
+                                                  int n,
+                                                  uint16_t* cost) {
+  const int padded = roundUp(n, 32);
+  for (int g = 0; g < padded; g += 64) {
+    // padded is a multiple of 32, so the tail group has 2 or 4 chunks of 16.
+    if (padded - g >= 64) {
+      avx2ZeroMeanGroup<4>(win, w, strip + g, offsets + g, cost + g);
+    } else {
+      avx2ZeroMeanGroup<2>(win, w, strip + g, offsets + g, cost + g);
+    }
+  }
+}
+#endif  // TWOCAM_HAVE_AVX2_KERNEL
+
+bool cpuHasAvx2() {
+#if defined(TWOCAM_HAVE_AVX2_KERNEL)
+  return __builtin_cpu_supports("avx2") != 0;
+#else
+  return false;
+#endif
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared plumbing of both matchers.
+
+Status checkInputs(const ImageU8& left,
+                   const ImageU8& right,
+                   const SalientSadOptions& options,
+                   const StereoHypotheses* out) {
+  if (out == nullptr) return Status::error("out is null");
+  if (left.empty() || right.empty()) {
+    return Status::error("empty image: left is " + std::to_string(left.width) + "x" +
+                         std::to_string(left.height) + ", right is " +
+                         std::to_string(right.width) + "x" + std::to_string(right.height));
+  }
+  if (left.width != right.width || left.height != right.height) {
+    return Status::error("image sizes differ: left is " + std::to_string(left.width) + "x" +
+                         std::to_string(left.height) + ", right is " +
+                         std::to_string(right.width) + "x" + std::to_string(right.height));
+  }
+  const size_t pixels = static_cast<size_t>(left.width) * static_cast<size_t>(left.height);
+  if (left.width <= 0 || left.height <= 0 || left.data.size() != pixels ||
+      right.data.size() != pixels) {
+    return Status::error("image buffer size does not match width x height");
+  }
+  const Status valid = options.validate();
+  if (!valid.isOk()) return valid;
+  if (options.max_disparity_px + options.window_width_px > left.width) {
+    return Status::error(
+        "max_disparity_px + window_width_px = " +
+        std::to_string(options.max_disparity_px + options.window_width_px) +
+        " exceeds the image width " + std::to_string(left.width) + "; no pixel can be matched");
+  }
+  return Status::ok();
+}
+
+/// Largest cost a hypothesis may have under the max_cost_per_px gate [grey levels].
+int costGate(const SalientSadOptions& options) {
+  const double gate = static_cast<double>(options.max_cost_per_px) * options.window_width_px;
+  return static_cast<int>(std::min(gate, static_cast<double>(INT_MAX / 2)));
+}
+
+/// Scratch for one cost curve: a zero-padded copy of the strip when the kernel's padded reads
+/// would run past the image buffer, and the zero-mean offsets.
+struct CurveScratch {
+  alignas(32) uint8_t strip[kStripCapacity];
+  alignas(32) int16_t offsets[kMaxPadded];
+};
+
+/// Per-disparity rounded mean difference mean(strip[j..j+w)) - mean(win), j < n; 0 up to padded.
+void windowOffsets(
+    const uint8_t* win, int w, const uint8_t* strip, int n, int padded, int16_t* offsets) {
+  const int reciprocal = meanReciprocal(w);
+  int sum_l = 0;
+  int sum_r = 0;
+  for (int i = 0; i < w; ++i) {
+    sum_l += win[i];
+    sum_r += strip[i];
+  }
+  for (int j = 0; j < n; ++j) {
+    offsets[j] = roundedMeanDiff(sum_r - sum_l, reciprocal);
+    if (j + 1 < n) sum_r += strip[j + w] - strip[j];
+  }
+  std::fill(offsets + n, offsets + padded, int16_t{0});
+}
+
+/// Columns [base, base + need) of `image` row `row` for a kernel: the image's own pixels, or a
+/// zero-padded copy when the padded reads would run past the end of the buffer. The caller
+/// guarantees that the columns the valid lanes read exist.
+const uint8_t* stripFor(
+    const ImageU8& image, int row, int base, size_t need, CurveScratch* scratch) {
+  const size_t start = static_cast<size_t>(row) * static_cast<size_t>(image.width) + base;
+  const uint8_t* strip = image.data.data() + start;
+  if (start + need <= image.data.size()) return strip;
+  const size_t avail = image.data.size() - start;
+  std::memcpy(scratch->strip, strip, avail);
+  std::memset(scratch->strip + avail, 0, need - avail);
+  return scratch->strip;
+}
+
+/// Runs the kernel for window `win` against columns [base, base + n + w - 1) of `image` row
+/// `row` (the caller guarantees they exist). cost[j], j < n, is valid afterwards.
+void costCurve(SadKernel kernel,
+               const uint8_t* win,
+               int w,
+               const ImageU8& image,
+               int row,
+               int base,
+               int n,
+               bool zero_mean,
+               CurveScratch* scratch,
+               uint16_t* cost) {
+  const int padded = internal::paddedLength(n, kernel);
+  const uint8_t* strip =
+      stripFor(image, row, base, static_cast<size_t>(padded + w - 1), scratch);
+  const int16_t* offsets = nullptr;
+  if (zero_mean) {
+    windowOffsets(win, w, strip, n, padded, scratch->offsets);
+    offsets = scratch->offsets;
+  }
+  internal::sadCurve(kernel, win, w, strip, offsets, n, cost);
+}
+
+/// SAD of two 1xW windows (plain or zero-mean), for corner pairing.
+int windowCost(const uint8_t* a, const uint8_t* b, int w, bool zero_mean) {
+  int offset = 0;
+  if (zero_mean) {
+    int sum_a = 0;
+    int sum_b = 0;
+    for (int i = 0; i < w; ++i) {
+      sum_a += a[i];
+      sum_b += b[i];
+    }
+    offset = roundedMeanDiff(sum_b - sum_a, meanReciprocal(w));
+  }
+  int cost = 0;
+  for (int i = 0; i < w; ++i) cost += std::abs(a[i] - b[i] + offset);
+  return cost;
+}
+
+/// Smallest of c[0, n). Costs stay below 2^15 (W <= 63 and |difference| <= 510), so signed
+/// 16-bit SIMD minima are exact.
+int minCost(const uint16_t* c, int n) {
+  int t = 0;
+  int best = INT_MAX;
+#if defined(__SSE2__)
+  if (n >= 8) {
+    __m128i m = _mm_loadu_si128(reinterpret_cast<const __m128i*>(c));  // NOLINT
+    for (t = 8; t + 8 <= n; t += 8) {
+      m = _mm_min_epi16(m, _mm_loadu_si128(reinterpret_cast<const __m128i*>(c + t)));  // NOLINT
+    }
+    m = _mm_min_epi16(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+    m = _mm_min_epi16(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1)));
+    m = _mm_min_epi16(m, _mm_shufflelo_epi16(m, _MM_SHUFFLE(2, 3, 0, 1)));
+    best = _mm_extract_epi16(m, 0);
+  }
+#endif
+  for (; t < n; ++t) best = std::min(best, static_cast<int>(c[t]));
+  return best;
+}
+
+/// Guard entries around every stored cost curve: c[-1] and c[n .. n + kGuard) hold kNoCost, so
+/// the local-minimum test needs no special case at the ends and its vector loads stay inside
+/// the curve's slot.
+constexpr int kGuard = 8;
+constexpr uint16_t kNoCost = 0x7FFF;  // above every real cost (< 2^15)
+constexpr int kCurveStride = kGuard + kMaxPadded + 2 * kGuard;
+
+/// Calls f(t), in increasing t, for every local minimum of c[0, n) at most `limit`: c[t] <
+/// c[t - 1] and c[t] <= c[t + 1] (a plateau reports its first index). c must carry the guards.
+template <typename F>
+void forEachLocalMinimum(const uint16_t* c, int n, int limit, F&& f) {
+  limit = std::min(limit, kNoCost - 1);
+#if defined(__SSE2__)
+  // Branch-free pass over up to 64 entries builds a bit mask; only the set bits (the few
+  // local minima under the limit) are visited.
+  const __m128i lim = _mm_set1_epi16(static_cast<int16_t>(limit));
+  auto pass8 = [&lim](const uint16_t* p) {
+    const __m128i cur = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));       // NOLINT
+    const __m128i prev = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p - 1));  // NOLINT
+    const __m128i next = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 1));  // NOLINT
+    const __m128i reject = _mm_or_si128(_mm_cmpgt_epi16(cur, next), _mm_cmpgt_epi16(cur, lim));
+    return _mm_andnot_si128(reject, _mm_cmplt_epi16(cur, prev));
+  };
+  for (int t0 = 0; t0 < n; t0 += 64) {
+    uint64_t bits = 0;
+    // Lanes at t >= n read guards (kNoCost > limit) and never pass.
+    for (int q = 0; q < 4 && t0 + 16 * q < n; ++q) {
+      const uint16_t* p = c + t0 + 16 * q;
+      const auto m16 =
+          static_cast<uint64_t>(_mm_movemask_epi8(_mm_packs_epi16(pass8(p), pass8(p + 8))));
+      bits |= m16 << (16 * q);
+    }
+    while (bits != 0) {
+      f(t0 + __builtin_ctzll(bits));
+      bits &= bits - 1;
+    }
+  }
+#else
+  for (int t = 0; t < n; ++t) {
+    if (c[t] <= limit && c[t] < c[t - 1] && c[t] <= c[t + 1]) f(t);
+  }
+#endif
+}
+
+/// Writes the guards of a curve of length n (after the kernel, which may scribble on the
+/// padded lanes).
+void setGuards(uint16_t* c, int n) {
+  c[-1] = kNoCost;
+  std::fill(c + n, c + n + 2 * kGuard, kNoCost);
+}
+
+/// One cost curve of a corner: right row v + row_offset_px, window columns
+/// u + align_px - h .. u + align_px + h (align_px = 0 is the centred window).
+struct Curve {
+  int row_offset_px = 0;
+  int align_px = 0;
+  int d_hi = 0;  // curve index t <-> disparity d_hi - t
+  int n = 0;
+  uint16_t* cost = nullptr;
+};
+
+/// A local minimum of one curve.
+struct Candidate {
+  int cost;
+  int d_px;
+  int t;      // index in the curve
+  int curve;  // index of the curve; curves are ordered by preference for equal costs
+};
+
+bool cheaper(const Candidate& a, const Candidate& b) {
+  if (a.cost != b.cost) return a.cost < b.cost;
+  if (a.curve != b.curve) return a.curve < b.curve;
+  return a.d_px < b.d_px;
+}
+
+/// Vertex offset of the parabola through (-1, c_minus), (0, c0), (1, c_plus), in [-0.5, 0.5].
+float parabolaOffset(int c_minus, int c0, int c_plus) {
+  const int denom = c_minus - 2 * c0 + c_plus;
+  if (denom <= 0) return 0.0f;
+  const float x = static_cast<float>(c_minus - c_plus) / (2.0f * static_cast<float>(denom));
+  return std::clamp(x, -0.5f, 0.5f);
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+
+namespace internal {
+
+SadKernel resolveKernel(SadKernel kernel) {
+  if (kernel != SadKernel::kAuto) return kernel;
+  if (cpuHasAvx2()) return SadKernel::kAvx2;
+#if defined(__SSE2__)
+  return SadKernel::kSse2;
+#else
+  return SadKernel::kScalar;
+#endif
+}
+
+int paddedLength(int n, SadKernel kernel) {
+  switch (resolveKernel(kernel)) {
+    case SadKernel::kSse2: return roundUp(n, 16);
+    case SadKernel::kAvx2: return roundUp(n, 32);
+    default: return n;
+  }
+}
+
+void sadPrefixCurves(SadKernel kernel,
+                     const uint8_t* win,
+                     const uint8_t* strip,
+                     int n,
+                     const int* ends,
+                     int num_ends,
+                     uint16_t* const* outs) {
+  switch (resolveKernel(kernel)) {
+#if defined(TWOCAM_HAVE_AVX2_KERNEL)
+    case SadKernel::kAvx2: prefixAvx2(win, strip, n, ends, num_ends, outs); return;
+#endif
+#if defined(__SSE2__)
+    case SadKernel::kSse2: prefixSse2(win, strip, n, ends, num_ends, outs); return;
+#endif
+    default: prefixScalar(win, strip, n, ends, num_ends, outs); return;
+  }
+}
+
+void sadCurve(SadKernel kernel,
+              const uint8_t* win,
+              int w,
+              const uint8_t* strip,
+              const int16_t* offsets,
+              int n,
+              uint16_t* cost) {
+  if (offsets == nullptr) {
+    sadPrefixCurves(kernel, win, strip, n, &w, 1, &cost);
+    return;
+  }
+  switch (resolveKernel(kernel)) {
+#if defined(TWOCAM_HAVE_AVX2_KERNEL)
+    case SadKernel::kAvx2: zeroMeanAvx2(win, w, strip, offsets, n, cost); return;
+#endif
+#if defined(__SSE2__)
+    case SadKernel::kSse2: zeroMeanSse2(win, w, strip, offsets, n, cost); return;
+#endif
+    default: zeroMeanScalar(win, w, strip, offsets, n, cost); return;
+  }
+}
+
+}  // namespace internal
+
+bool sadKernelAvailable(SadKernel kernel) {
+  switch (kernel) {
+    case SadKernel::kAuto:
+    case SadKernel::kScalar: return true;
+    case SadKernel::kSse2:
+#if defined(__SSE2__)
+      return true;
+#else
+      return false;
+#endif
+    case SadKernel::kAvx2: return cpuHasAvx2();
+  }
+  return false;
+}
+
+Status SalientSadOptions::validate() const {
+  auto fail = [](const std::string& what) { return Status::error(what); };
+  if (window_width_px < kMinWindow || window_width_px > kMaxWindow || window_width_px % 2 == 0) {
+    return fail("window_width_px = " + std::to_string(window_width_px) +
+                "; must be odd and in [3, 63]");
+  }
+  if (min_disparity_px < 0) {
+    return fail("min_disparity_px = " + std::to_string(min_disparity_px) + "; must be >= 0");
+  }
+  if (max_disparity_px < min_disparity_px) {
+    return fail("max_disparity_px = " + std::to_string(max_disparity_px) +
+                "; must be >= min_disparity_px = " + std::to_string(min_disparity_px));
+  }
+  if (max_disparity_px - min_disparity_px + 1 > kMaxDisparities) {
+    return fail("max_disparity_px - min_disparity_px + 1 = " +
+                std::to_string(max_disparity_px - min_disparity_px + 1) + "; must be <= 256");
+  }
+  if (row_tolerance_px < 0 || row_tolerance_px > kMaxRowTolerance) {
+    return fail("row_tolerance_px = " + std::to_string(row_tolerance_px) +
+                "; must be in [0, 8]");
+  }
+  if (max_hypotheses < 1 || max_hypotheses > kMaxHypothesesLimit) {
+    return fail("max_hypotheses = " + std::to_string(max_hypotheses) + "; must be in [1, 255]");
+  }
+  if (!std::isfinite(cost_ratio) || cost_ratio < 1.0f) {
+    return fail("cost_ratio = " + std::to_string(cost_ratio) + "; must be finite and >= 1");
+  }
+  if (min_separation_px < 1) {
+    return fail("min_separation_px = " + std::to_string(min_separation_px) + "; must be >= 1");
+  }
+  if (lr_tolerance_px < 0) {
+    return fail("lr_tolerance_px = " + std::to_string(lr_tolerance_px) + "; must be >= 0");
+  }
+  if (!std::isfinite(max_cost_per_px) || max_cost_per_px <= 0.0f) {
+    return fail("max_cost_per_px = " + std::to_string(max_cost_per_px) +
+                "; must be finite and > 0");
+  }
+  if (!sadKernelAvailable(kernel)) {
+    return fail("kernel = " + std::to_string(static_cast<int>(kernel)) +
+                " is not available on this CPU or build");
+  }
+  return Status::ok();
+}
+
+Status matchSalient(const ImageU8& left,
+                    const ImageU8& right,
+                    const std::vector<Corner>& corners,
+                    const SalientSadOptions& options,
+                    StereoHypotheses* out) {
+  const Status status = checkInputs(left, right, options, out);
+  if (!status.isOk()) return status;
+  out->clear();
+  out->points.reserve(corners.size());
+
+  const SadKernel kernel = internal::resolveKernel(options.kernel);
+  const int w = options.window_width_px;
+  const int h = w / 2;
+  const int m = options.row_tolerance_px;
+  const int d_min = options.min_disparity_px;
+  const int d_max = options.max_disparity_px;
+  const int width = left.width;
+  const int height = left.height;
+  const int gate = costGate(options);
+  const size_t max_k = static_cast<size_t>(options.max_hypotheses);
+  // Window alignments, centred first (preferred on equal cost): ending at u, starting at u.
+  const int alignments[3] = {0, -h, h};
+  const int num_alignments = options.shiftable_windows ? 3 : 1;
+
+  CurveScratch scratch;
+  constexpr int kMaxCurves = (2 * kMaxRowTolerance + 1) * 3;
+  std::vector<uint16_t> curve_storage(static_cast<size_t>(kMaxCurves) * kCurveStride);
+  Curve curves[kMaxCurves];
+  alignas(32) uint16_t back[kMaxPadded];
+  alignas(32) uint16_t prefix[4][kMaxPadded];
+  std::vector<Candidate> candidates;
+  candidates.reserve(64);
+  Candidate chosen[kMaxHypothesesLimit];
+
+  for (const Corner& corner : corners) {
+    const int u = corner.u_px;
+    const int v = corner.v_px;
+    if (u < h || u >= width - h || v < 0 || v >= height) continue;
+    const auto point_index = static_cast<uint32_t>(out->points.size());
+    SalientPoint point;
+    point.corner = corner;
+    point.first_hypothesis = static_cast<uint32_t>(out->hypotheses.size());
+
+    // One pass over the 2W-1 columns u-2h..u+2h gives all three alignments when they share
+    // the full disparity range (plain SAD; zero-mean offsets differ per window).
+    const bool fused = num_alignments == 3 && !options.zero_mean && u - 2 * h >= d_max &&
+                       u + 2 * h < width;
+
+    // Rows in the order 0, -1, +1, -2, +2, ... so that equal costs prefer small offsets.
+    int num_curves = 0;
+    int best = INT_MAX;
+    for (int ri = 0; ri <= 2 * m; ++ri) {
+      const int r = (ri % 2 == 1) ? -(ri + 1) / 2 : ri / 2;
+      if (v + r < 0 || v + r >= height) continue;
+      if (fused) {
+        const int n = d_max - d_min + 1;
+        const int span = 4 * h + 1;
+        const uint8_t* strip = stripFor(right,
+                                        v + r,
+                                        u - 2 * h - d_max,
+                                        static_cast<size_t>(internal::paddedLength(n, kernel) +
+                                                            span - 1),
+                                        &scratch);
+        Curve* centre = &curves[num_curves];
+        Curve* ends_at_u = &curves[num_curves + 1];
+        Curve* starts_at_u = &curves[num_curves + 2];
+        for (int k = 0; k < 3; ++k) {
+          Curve& curve = curves[num_curves + k];
+          curve.row_offset_px = r;
+          curve.align_px = alignments[k];
+          curve.d_hi = d_max;
+          curve.n = n;
+          curve.cost =
+              curve_storage.data() + static_cast<size_t>(num_curves + k) * kCurveStride + kGuard;
+        }
+        // Prefix ends: h, 2h, 2h+1 (= window ending at u), 3h+1, 4h+1.
+        const int ends[5] = {h, 2 * h, 2 * h + 1, 3 * h + 1, 4 * h + 1};
+        uint16_t* const outs[5] = {
+            prefix[0], prefix[1], ends_at_u->cost, prefix[2], prefix[3]};
+        internal::sadPrefixCurves(kernel, left.row(v) + (u - 2 * h), strip, n, ends, 5, outs);
+        for (int j = 0; j < n; ++j) {
+          centre->cost[j] = static_cast<uint16_t>(prefix[2][j] - prefix[0][j]);
+          starts_at_u->cost[j] = static_cast<uint16_t>(prefix[3][j] - prefix[1][j]);
+        }
+        for (int k = 0; k < 3; ++k) {
+          setGuards(curves[num_curves + k].cost, n);
+          best = std::min(best, minCost(curves[num_curves + k].cost, n));
+        }
+        num_curves += 3;
+        continue;
+      }
+      for (int ai = 0; ai < num_alignments; ++ai) {
+        const int a = alignments[ai];
+        const int start = u + a - h;  // first column of the left window
+        if (start < 0 || start + w > width) continue;
+        // Disparities whose right window starts left of column 0 are not searched.
+        const int d_hi = std::min(d_max, start);
+        if (d_hi < d_min) continue;
+        Curve& curve = curves[num_curves];
+        curve.row_offset_px = r;
+        curve.align_px = a;
+        curve.d_hi = d_hi;
+        curve.n = d_hi - d_min + 1;
+        curve.cost =
+            curve_storage.data() + static_cast<size_t>(num_curves) * kCurveStride + kGuard;
+        costCurve(kernel,
+                  left.row(v) + start,
+                  w,
+                  right,
+                  v + r,
+                  start - d_hi,
+                  curve.n,
+                  options.zero_mean,
+                  &scratch,
+                  curve.cost);
+        setGuards(curve.cost, curve.n);
+        best = std::min(best, minCost(curve.cost, curve.n));
+        ++num_curves;
+      }
+    }
+    if (num_curves == 0 || best > gate) {
+      out->points.push_back(point);
+      continue;
+    }
+    const double ratio_limit = static_cast<double>(best) * options.cost_ratio;
+    const int threshold = std::min(gate, static_cast<int>(std::min(ratio_limit, 1e9)));
+
+    candidates.clear();
+    for (int k = 0; k < num_curves; ++k) {
+      const Curve& curve = curves[k];
+      const uint16_t* c = curve.cost;
+      forEachLocalMinimum(c, curve.n, threshold, [&](int t) {
+        candidates.push_back({static_cast<int>(c[t]), curve.d_hi - t, t, k});
+      });
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+      return cheaper(a, b);
+    });
+
+    size_t num_chosen = 0;
+    for (const Candidate& cand : candidates) {
+      if (num_chosen == max_k) break;
+      bool distinct = true;
+      for (size_t k = 0; k < num_chosen; ++k) {
+        if (std::abs(cand.d_px - chosen[k].d_px) < options.min_separation_px) {
+          distinct = false;
+          break;
+        }
+      }
+      if (distinct) chosen[num_chosen++] = cand;
+    }
+
+    for (size_t k = 0; k < num_chosen; ++k) {
+      const Candidate& cand = chosen[k];
+      const Curve& curve = curves[cand.curve];
+      const uint16_t* c = curve.cost;
+      float offset = 0.0f;
+      if (cand.t > 0 && cand.t + 1 < curve.n) {
+        // c[t + 1] is disparity d - 1, c[t - 1] is d + 1.
+        offset = parabolaOffset(c[cand.t + 1], c[cand.t], c[cand.t - 1]);
+      }
+      DisparityHypothesis hyp;
+      hyp.d_px = static_cast<float>(cand.d_px) + offset;
+      hyp.cost = static_cast<float>(cand.cost);
+      hyp.point_index = point_index;
+      hyp.row_offset_px = static_cast<int8_t>(curve.row_offset_px);
+      hyp.rank = static_cast<uint8_t>(k);
+      if (options.lr_check) {
+        // The right window (same alignment) at u - d on row v + r, searched along left row v:
+        // back curve index t <-> disparity d_min + t.
+        const int right_start = u - cand.d_px + curve.align_px - h;
+        const int back_hi = std::min(d_max, width - w - right_start);
+        const int back_n = back_hi - d_min + 1;
+        costCurve(kernel,
+                  right.row(v + curve.row_offset_px) + right_start,
+                  w,
+                  left,
+                  v,
+                  right_start + d_min,
+                  back_n,
+                  options.zero_mean,
+                  &scratch,
+                  back);
+        const int t_lo = std::max(0, cand.d_px - options.lr_tolerance_px - d_min);
+        const int t_hi = std::min(back_n - 1, cand.d_px + options.lr_tolerance_px - d_min);
+        int near_best = INT_MAX;
+        for (int t = t_lo; t <= t_hi; ++t) near_best = std::min(near_best, static_cast<int>(back[t]));
+        hyp.lr_consistent = near_best == minCost(back, back_n);
+      }
+      out->hypotheses.push_back(hyp);
+    }
+    point.num_hypotheses = static_cast<uint32_t>(num_chosen);
+    out->points.push_back(point);
+  }
+  return Status::ok();
+}
+
+const DisparityHypothesis* confidentBest(const StereoHypotheses& hyps, const SalientPoint& point) {
+  if (point.num_hypotheses == 0) return nullptr;
+  TWOCAM_CHECK(static_cast<size_t>(point.first_hypothesis) + point.num_hypotheses <=
+               hyps.hypotheses.size())
+      << "point's hypotheses [" << point.first_hypothesis << ", +" << point.num_hypotheses
+      << ") outside the " << hyps.hypotheses.size() << " of this StereoHypotheses";
+  const DisparityHypothesis* first = &hyps.hypotheses[point.first_hypothesis];
+  if (!first->lr_consistent) return nullptr;
+  for (uint32_t k = 1; k < point.num_hypotheses; ++k) {
+    if (first[k].lr_consistent) return nullptr;
+  }
+  return first;
+}
+
+Status pairCorners(const ImageU8& left,
+                   const ImageU8& right,
+                   const std::vector<Corner>& left_corners,
+                   const std::vector<Corner>& right_corners,
+                   const SalientSadOptions& options,
+                   StereoHypotheses* out) {
+  const Status status = checkInputs(left, right, options, out);
+  if (!status.isOk()) return status;
+  out->clear();
+  out->points.reserve(left_corners.size());
+
+  const int w = options.window_width_px;
+  const int h = w / 2;
+  const int m = options.row_tolerance_px;
+  const int width = left.width;
+  const int height = left.height;
+  const int gate = costGate(options);
+
+  // Row index of the right corners whose window fits: row_begin[v]..row_begin[v + 1] in
+  // `by_row`, sorted by column.
+  std::vector<uint32_t> row_begin(static_cast<size_t>(height) + 1, 0);
+  for (const Corner& c : right_corners) {
+    if (c.u_px >= h && c.u_px < width - h && c.v_px >= 0 && c.v_px < height) {
+      ++row_begin[static_cast<size_t>(c.v_px) + 1];
+    }
+  }
+  for (int v = 0; v < height; ++v) row_begin[v + 1] += row_begin[v];
+  std::vector<uint32_t> by_row(row_begin[height]);
+  {
+    std::vector<uint32_t> fill(row_begin.begin(), row_begin.end() - 1);
+    for (size_t i = 0; i < right_corners.size(); ++i) {
+      const Corner& c = right_corners[i];
+      if (c.u_px >= h && c.u_px < width - h && c.v_px >= 0 && c.v_px < height) {
+        by_row[fill[c.v_px]++] = static_cast<uint32_t>(i);
+      }
+    }
+  }
+  auto column_less = [&right_corners](uint32_t a, uint32_t b) {
+    return right_corners[a].u_px < right_corners[b].u_px ||
+           (right_corners[a].u_px == right_corners[b].u_px && a < b);
+  };
+  for (int v = 0; v < height; ++v) {
+    std::sort(by_row.begin() + row_begin[v], by_row.begin() + row_begin[v + 1], column_less);
+  }
+
+  struct Pair {
+    int cost;
+    int d_px;
+    int row_offset_px;
+    uint32_t right_index;
+  };
+  std::vector<Pair> pairs;
+  std::vector<uint32_t> pair_begin;  // per point, into pairs
+  pair_begin.reserve(left_corners.size() + 1);
+  std::vector<int> right_best(right_corners.size(), INT_MAX);
+
+  for (const Corner& corner : left_corners) {
+    const int u = corner.u_px;
+    const int v = corner.v_px;
+    if (u < h || u >= width - h || v < 0 || v >= height) continue;
+    pair_begin.push_back(static_cast<uint32_t>(pairs.size()));
+    SalientPoint point;
+    point.corner = corner;
+    out->points.push_back(point);
+    const uint8_t* win = left.row(v) + (u - h);
+    const int u_lo = u - options.max_disparity_px;
+    const int u_hi = u - options.min_disparity_px;
+    for (int r = -m; r <= m; ++r) {
+      const int vr = v + r;
+      if (vr < 0 || vr >= height) continue;
+      const auto first = by_row.begin() + row_begin[vr];
+      const auto last = by_row.begin() + row_begin[vr + 1];
+      auto it = std::lower_bound(
+          first, last, u_lo, [&right_corners](uint32_t i, int col) {
+            return right_corners[i].u_px < col;
+          });
+      for (; it != last && right_corners[*it].u_px <= u_hi; ++it) {
+        const int ur = right_corners[*it].u_px;
+        int cost = windowCost(win, right.row(vr) + (ur - h), w, options.zero_mean);
+        if (options.shiftable_windows) {
+          for (const int a : {-h, h}) {
+            if (std::min(u, ur) + a - h < 0 || std::max(u, ur) + a + h >= width) continue;
+            cost = std::min(cost,
+                            windowCost(left.row(v) + (u + a - h),
+                                       right.row(vr) + (ur + a - h),
+                                       w,
+                                       options.zero_mean));
+          }
+        }
+        pairs.push_back({cost, u - ur, r, *it});
+        right_best[*it] = std::min(right_best[*it], cost);
+      }
+    }
+  }
+  pair_begin.push_back(static_cast<uint32_t>(pairs.size()));
+
+  auto pair_less = [](const Pair& a, const Pair& b) {
+    if (a.cost != b.cost) return a.cost < b.cost;
+    if (a.d_px != b.d_px) return a.d_px < b.d_px;
+    if (std::abs(a.row_offset_px) != std::abs(b.row_offset_px)) {
+      return std::abs(a.row_offset_px) < std::abs(b.row_offset_px);
+    }
+    return a.row_offset_px < b.row_offset_px;
+  };
+  for (size_t p = 0; p < out->points.size(); ++p) {
+    const auto first = pairs.begin() + pair_begin[p];
+    const auto last = pairs.begin() + pair_begin[p + 1];
+    const auto kept_end =
+        std::partition(first, last, [gate](const Pair& pr) { return pr.cost <= gate; });
+    const auto count = std::min<std::ptrdiff_t>(kept_end - first, options.max_hypotheses);
+    std::partial_sort(first, first + count, kept_end, pair_less);
+    SalientPoint& point = out->points[p];
+    point.first_hypothesis = static_cast<uint32_t>(out->hypotheses.size());
+    point.num_hypotheses = static_cast<uint32_t>(count);
+    for (std::ptrdiff_t k = 0; k < count; ++k) {
+      const Pair& pr = first[k];
+      DisparityHypothesis hyp;
+      hyp.d_px = static_cast<float>(pr.d_px);
+      hyp.cost = static_cast<float>(pr.cost);
+      hyp.point_index = static_cast<uint32_t>(p);
+      hyp.row_offset_px = static_cast<int8_t>(pr.row_offset_px);
+      hyp.rank = static_cast<uint8_t>(k);
+      hyp.lr_consistent = options.lr_check && pr.cost == right_best[pr.right_index];
+      out->hypotheses.push_back(hyp);
+    }
+  }
+  return Status::ok();
+}
+
+}  // namespace twocam::frontend

@@ -1,0 +1,187 @@
+#pragma once
+/// Stereo hypotheses at salient points of a rectified pair, two ways:
+///
+/// - matchSalient(): Paper B's 1-D SAD. For each left corner (u, v) the 1xW window
+///   L(u-h..u+h, v), h = (W-1)/2, is compared with R(u-h-d..u+h-d, v+r) for every disparity
+///   d in [min_disparity_px, max_disparity_px] and row offset r in [-m, m]; with
+///   shiftable_windows (default) also the windows ending at and starting at u. The cost
+///   curves' distinct local minima within cost_ratio of the best become the point's rival
+///   hypotheses (up to max_hypotheses), each with a parabola-fitted sub-pixel disparity and a
+///   right-to-left consistency flag. The SAD runs 16 (SSE2) or 32 (AVX2) disparities per
+///   instruction: one left pixel against consecutive right pixels, summed in uint16 lanes.
+/// - pairCorners(): Paper A §5.5.2 "spurious matching". Every right corner inside the search
+///   window W_m(F_i) (rows v +- m, disparities in range) is a hypothesis for left corner F_i;
+///   the database, not the matcher, decides which one is real.
+///
+/// Both fill the same StereoHypotheses (common/features.h) so the two sources can be compared.
+/// Disparity d = u_left - u_right >= 0 (docs: ../shared/METRICS.md).
+
+#include <cstddef>  // before common/image.h, which uses size_t without including it
+#include <cstdint>
+#include <vector>
+
+#include "common/features.h"
+#include "common/image.h"
+#include "common/status.h"
+
+namespace twocam::frontend {
+
+/// Which implementation computes the SAD cost curves. All produce bit-identical results;
+/// the choice exists for tests (cross-checking) and benchmarks (speed-up figures).
+enum class SadKernel : uint8_t {
+  kAuto,    ///< Fastest available on this CPU: AVX2, else SSE2, else scalar.
+  kScalar,  ///< Portable C++ loops.
+  kSse2,    ///< 16 disparities per instruction (x86-64 baseline).
+  kAvx2,    ///< 32 disparities per instruction (checked at run time).
+};
+
+/// True when `kernel` can run on this build and CPU (kAuto and kScalar always can).
+[[nodiscard]] bool sadKernelAvailable(SadKernel kernel);
+
+struct SalientSadOptions {
+  /// Width W of the 1xW matching window [px], odd, in [3, 63]. 11 is inside Paper B's
+  /// 3..21 range and long enough for a unique match on textured rows.
+  int window_width_px = 11;
+  /// Smallest disparity searched [px], >= 0 (rectified rig: the right view is shifted left).
+  int min_disparity_px = 0;
+  /// Largest disparity searched [px]; max - min + 1 <= 256. 63 gives the 64 disparities of
+  /// the papers' FPGA design.
+  int max_disparity_px = 63;
+  /// Row tolerance m [px], in [0, 8]: right rows v-m..v+m are searched too. Paper A's
+  /// "calibration accuracy value"; 0 because our pairs are rectified in software.
+  int row_tolerance_px = 0;
+  /// Largest number K of rival hypotheses kept per point, in [1, 255]. 4 is the budget the
+  /// landmark database is sized for (recall_at_k is reported for k <= 4).
+  int max_hypotheses = 4;
+  /// A local minimum is kept when its cost <= cost_ratio * best cost (>= 1). 3 keeps
+  /// repeated-texture aliases and the rival surfaces of a depth edge (measured on Middlebury:
+  /// 1.6-2.0 hypotheses per point, recall_at_4 +1.6 points over 2.0 on Tsukuba) while K
+  /// bounds the list; the landmark database, not the matcher, decides between rivals.
+  float cost_ratio = 3.0f;
+  /// Distinct minima are at least this far apart in disparity [px] (>= 1); the cheaper one
+  /// of a closer pair wins. 2: adjacent integer minima are one valley; 2 px apart may be the
+  /// two sides of a depth edge (measured: fewer wrong confident points than 3 on Tsukuba).
+  int min_separation_px = 2;
+  /// Right-to-left check: the right window of a hypothesis is matched back along the left row
+  /// (same disparity range, row of the corner); the hypothesis is lr_consistent when that
+  /// search's lowest cost is reached within this many px of the hypothesis' integer disparity
+  /// (>= 0; ties count, so equal-cost aliases of a periodic texture all pass). 1 px tolerates
+  /// the half-pixel rounding of two integer searches.
+  int lr_tolerance_px = 1;
+  /// Run the right-to-left check. false leaves every lr_consistent flag false (saves one
+  /// cost curve per hypothesis).
+  bool lr_check = true;
+  /// Hypotheses whose cost exceeds max_cost_per_px * W are dropped [grey levels per pixel],
+  /// > 0. 255 (the largest possible absolute difference) disables the gate; the landmark
+  /// database sorts out weak matches over time, so the default drops nothing.
+  float max_cost_per_px = 255.0f;
+  /// Shiftable windows: besides the centred window, also match the windows that end at the
+  /// corner (u-W+1..u) and start at it (u..u+W-1); their minima join the candidates. At a
+  /// depth edge one of them lies on the corner's own surface, which recovers disparities a
+  /// centred window misses (foreground fattening). On by default: Harris corners sit on depth
+  /// edges more often than not, and the three windows share one pass over 2W-1 columns
+  /// (about 1.6x the work of the centred window alone for plain SAD). A hypothesis' cost and
+  /// right-to-left check use the window alignment that produced it.
+  bool shiftable_windows = true;
+  /// Zero-mean SAD: each window's mean (rounded to an integer) is subtracted before the
+  /// absolute differences, so a brightness offset between the cameras costs nothing. false by
+  /// default: plain SAD is the papers' cost and is cheaper (see the report for figures).
+  bool zero_mean = false;
+  /// Which SAD implementation to run (results are identical; see SadKernel).
+  SadKernel kernel = SadKernel::kAuto;
+
+  /// OK, or an error naming the first broken constraint and its value.
+  [[nodiscard]] Status validate() const;
+};
+
+/// Paper B's salient 1-D SAD matcher (see the file comment).
+///
+/// Fills out->points with one SalientPoint per input corner whose window fits the left image
+/// (h <= u < width - h, 0 <= v < height), in input order; other corners are skipped. Each
+/// point's hypotheses sit in out->hypotheses[first_hypothesis, first_hypothesis + num):
+/// ranked by cost (rank 0 = cheapest), point_index linking rivals. A point may have none
+/// (all minima gated by max_cost_per_px).
+///
+/// Per hypothesis: d_px is the integer minimum refined by a parabola through the costs at
+/// d-1, d, d+1 of the same curve, i.e. row and window alignment (|offset| <= 0.5; integer at
+/// the ends of the searched range); cost is that window's SAD [grey levels] at the integer
+/// minimum; row_offset_px is r. Equal costs prefer the centred window, then small |r|, then
+/// small d.
+///
+/// Disparities whose right window would leave the image are not searched, nor are right rows
+/// outside the image. out is cleared first and its capacity reused; out->t_ns is untouched.
+/// Errors (out untouched): null out, empty or differently sized images, invalid options, or
+/// max_disparity_px + window_width_px > image width.
+Status matchSalient(const ImageU8& left,
+                    const ImageU8& right,
+                    const std::vector<Corner>& corners,
+                    const SalientSadOptions& options,
+                    StereoHypotheses* out);
+
+/// Paper A's spurious matching: every right corner (ur, vr) with |vr - v| <= m and
+/// d = u - ur in [min_disparity_px, max_disparity_px] is a hypothesis of left corner (u, v),
+/// with d_px = d (integer: both corners are integer pixels), row_offset_px = vr - v and cost
+/// the 1xW SAD (plain or zero-mean as options say) between the two corners' windows (with
+/// shiftable_windows, the lowest over the three alignments that fit both images). The
+/// max_hypotheses cheapest are kept, ranked by cost (ties: smaller disparity first); those
+/// above max_cost_per_px * W are dropped. cost_ratio, min_separation_px and lr_tolerance_px
+/// are not used: Paper A keeps every pair in the window.
+///
+/// lr_consistent (when options.lr_check) is the mutual-best test among corners: true when no
+/// other left corner pairs with the same right corner at a lower cost (ties all count).
+///
+/// Points, skipping and errors as matchSalient (right corners whose window does not fit the
+/// right image are ignored). Right corners are bucketed by row, so the work is
+/// O(left corners x right corners per 2m+1 rows), not all pairs.
+Status pairCorners(const ImageU8& left,
+                   const ImageU8& right,
+                   const std::vector<Corner>& left_corners,
+                   const std::vector<Corner>& right_corners,
+                   const SalientSadOptions& options,
+                   StereoHypotheses* out);
+
+/// The point's rank-0 hypothesis when it passed the right-to-left check and none of its
+/// rivals did; nullptr otherwise (no hypotheses, best inconsistent, or several consistent
+/// rivals, i.e. ambiguous). This is the "single best passes the consistency checks" of the
+/// bad1 figures. `point` must belong to `hyps`.
+[[nodiscard]] const DisparityHypothesis* confidentBest(const StereoHypotheses& hyps,
+                                                      const SalientPoint& point);
+
+namespace internal {
+
+/// The SAD cost-curve kernel, exposed for tests and benchmarks:
+/// cost[j] = sum_{i<w} |win[i] - strip[i + j]| for j in [0, n) (zero_mean == false), or with
+/// each window's rounded mean removed when offsets != nullptr: cost[j] = sum_i |win[i] -
+/// strip[i + j] + offsets[j]|, offsets[j] = round(mean(strip[j..j+w)) - mean(win)).
+/// Reads strip[0, paddedLength(n, kernel) + w - 1) and writes cost[0, paddedLength(n, kernel));
+/// entries at j >= n are unspecified. w in [1, 63], n in [1, 256].
+void sadCurve(SadKernel kernel,
+              const uint8_t* win,
+              int w,
+              const uint8_t* strip,
+              const int16_t* offsets,
+              int n,
+              uint16_t* cost);
+
+/// Prefix cost curves of plain SAD, one pass for several window lengths:
+/// outs[k][j] = sum_{i < ends[k]} |win[i] - strip[i + j]| for j in [0, n), k < num_ends, with
+/// ends increasing and ends[num_ends - 1] <= 125 (sums stay below 2^15). Differences of two
+/// prefixes give any window inside [0, ends[last]). Reads strip[0, paddedLength(n, kernel) +
+/// ends[last] - 1) and writes outs[k][0, paddedLength(n, kernel)).
+void sadPrefixCurves(SadKernel kernel,
+                     const uint8_t* win,
+                     const uint8_t* strip,
+                     int n,
+                     const int* ends,
+                     int num_ends,
+                     uint16_t* const* outs);
+
+/// n rounded up to the kernel's vector width (kAuto resolved to the CPU's kernel).
+int paddedLength(int n, SadKernel kernel);
+
+/// The kernel kAuto stands for on this CPU.
+SadKernel resolveKernel(SadKernel kernel);
+
+}  // namespace internal
+
+}  // namespace twocam::frontend
