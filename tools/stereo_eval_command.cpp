@@ -72,6 +72,17 @@ int runStereoEval(const StereoEvalArgs& args) {
     if (Status s = eval::loadMask(args.mask_path, &mask); !s) return fail(s.message());
     if (mask.width != left.width || mask.height != left.height) return fail(args.mask_path + ": mask size differs from the images");
   }
+  if (args.exclude_occluded) {
+    ImageU8 visible;
+    eval::nonOccludedMask(gt, &visible);
+    if (mask.empty()) {
+      mask = std::move(visible);
+    } else {
+      for (size_t i = 0; i < mask.data.size(); ++i) {
+        if (visible.data[i] != 255) mask.data[i] = 0;
+      }
+    }
+  }
   eval::StereoEvalOptions eval_options;
   eval_options.border_px = args.border_px;
   if (Status s = eval_options.validate(); !s) return fail(s.message());

@@ -23,6 +23,9 @@ struct StereoEvalArgs {
   std::string post;
   /// Salient mode: number of corners per megapixel the detector aims for.
   int corners_per_mp = 3255;  // 1000 corners at 640x480
+  /// Also drop pixels the right camera cannot see, derived from the ground truth
+  /// (eval::nonOccludedMask); combined with --mask when both are given.
+  bool exclude_occluded = false;
 };
 
 int runStereoEval(const StereoEvalArgs& args);

@@ -2,6 +2,7 @@
 /// Plain image buffers exchanged between modules. Row-major, tightly packed,
 /// pixel (0, 0) is the top-left pixel; its centre is at (u, v) = (0, 0).
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 

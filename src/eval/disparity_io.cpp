@@ -253,6 +253,23 @@ Status loadMask(const std::string& path, ImageU8* mask) {
   return Status::ok();
 }
 
+void nonOccludedMask(const DisparityGroundTruth& gt, ImageU8* mask) {
+  const int w = gt.d_px.width;
+  const int h = gt.d_px.height;
+  ImageU8 out(w, h, 0);
+  for (int v = 0; v < h; ++v) {
+    double leftmost_landing = std::numeric_limits<double>::infinity();  // min_{u2>u} u2 - d(u2)
+    for (int u = w - 1; u >= 0; --u) {
+      if (gt.valid(u, v) == 0) continue;
+      const double landing = static_cast<double>(u) - gt.d_px(u, v);
+      const bool hidden = leftmost_landing <= landing - 0.5;
+      out(u, v) = landing >= 0.0 && !hidden ? 255 : 128;
+      leftmost_landing = std::min(leftmost_landing, landing);
+    }
+  }
+  *mask = std::move(out);
+}
+
 Status disparityFromDepth(const ImageF32& depth_m, const StereoRig& rig, DisparityGroundTruth* gt) {
   if (depth_m.width <= 0 || depth_m.height <= 0 ||
       depth_m.data.size() != static_cast<size_t>(depth_m.width) * depth_m.height) {

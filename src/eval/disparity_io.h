@@ -64,6 +64,15 @@ Status writePfm(const std::string& path, const ImageF32& image);
 /// masks use 128 for occluded and 0 for unknown). Errors name the path.
 Status loadMask(const std::string& path, ImageU8* mask);
 
+/// Middlebury-style non-occlusion mask derived from the left ground truth alone, for data sets
+/// that ship no nonocc.png: 255 where the pixel has ground truth and the right camera sees it,
+/// 128 where it has ground truth but is occluded, 0 where it has none (Middlebury's coding, so
+/// the evaluators keep only the 255s). A pixel (u, v) with disparity d is occluded when it lands
+/// outside the right image (u - d < 0) or when a pixel further right on the row, nearer to the
+/// camera, lands at or left of it in the right view: min_{u2 > u} (u2 - d(u2)) <= u - d - 0.5.
+/// Pixels without ground truth cannot hide others (their depth is unknown).
+void nonOccludedMask(const DisparityGroundTruth& gt, ImageU8* mask);
+
 /// Ground-truth disparity from a simulator's left depth image (METRICS.md "Simulated runs"):
 /// d_gt = fx * B / Z. Invalid where Z is not a finite positive number (0 = no surface) and where
 /// the 3x3 neighbourhood is a depth discontinuity: it contains a pixel without surface, or its

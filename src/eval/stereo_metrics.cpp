@@ -188,6 +188,9 @@ Status evaluateSalient(const StereoHypotheses& hyps,
     }
     const DisparityHypothesis* best = nullptr;
     bool any_within_k = false;
+    // Consistent rivals, to tell an unambiguous best from one of several plausible depths.
+    float consistent_min = std::numeric_limits<float>::infinity();
+    float consistent_max = -std::numeric_limits<float>::infinity();
     for (uint64_t j = p.first_hypothesis; j < end; ++j) {
       const DisparityHypothesis& hyp = hyps.hypotheses[j];
       if (hyp.point_index != i) {
@@ -201,6 +204,10 @@ Status evaluateSalient(const StereoHypotheses& hyps,
                                " has two rank-0 hypotheses");
         }
         best = &hyp;
+      }
+      if (hyp.lr_consistent && std::isfinite(hyp.d_px)) {
+        consistent_min = std::min(consistent_min, hyp.d_px);
+        consistent_max = std::max(consistent_max, hyp.d_px);
       }
       if (hyp.rank < options.k && std::isfinite(hyp.d_px) &&
           std::abs(static_cast<double>(hyp.d_px) - gt.d_px(u, v)) <= options.recall_tol_px) {
@@ -218,7 +225,10 @@ Status evaluateSalient(const StereoHypotheses& hyps,
     if (best == nullptr || !std::isfinite(best->d_px)) continue;
     const double err = std::abs(static_cast<double>(best->d_px) - gt.d_px(u, v));
     recalled_1 += err <= options.recall_tol_px ? 1 : 0;
-    if (best->lr_consistent) tally.addEstimate(err, options);
+    const bool unambiguous =
+        static_cast<double>(consistent_max) - best->d_px <= options.recall_tol_px &&
+        static_cast<double>(best->d_px) - consistent_min <= options.recall_tol_px;
+    if (best->lr_consistent && unambiguous) tally.addEstimate(err, options);
   }
   StereoMetrics m;
   tally.fill(&m);

@@ -7,8 +7,10 @@
 /// the mask when one is given (mask value 255 = keep), and at least border_px from every image
 /// edge. Of those, an item "has an estimate" when
 ///   dense:   its disparity is finite and >= 0 (value < 0 = no estimate, the map convention);
-///   salient: its best hypothesis (rank 0) is lr_consistent ("single-best after consistency
-///            checks") and its d_px is finite.
+///   salient: its best hypothesis (rank 0) passes the consistency checks ("single-best after
+///            consistency checks"): its d_px is finite, it is lr_consistent, and no other
+///            lr_consistent hypothesis of the point differs from it by more than
+///            recall_tol_px (an unambiguous answer; the rule of frontend confidentBest()).
 /// Then (all percentages are PERCENT, 0..100, as METRICS.md reports them):
 ///   bad1 / bad2 = 100 * #{estimated, |d - d_gt| > bad1_px / bad2_px} / #evaluated
 ///   avgerr      = mean |d - d_gt| over estimated items [px]

@@ -194,17 +194,15 @@ void matchRow(const uint8_t* __restrict left,
         ri[j] = static_cast<uint16_t>((kIndex.values[j] & better) | (ri[j] & ~better));
       }
     }
-    // Smallest index reaching the minimum (masks written as arithmetic: GCC does not
-    // vectorise the equivalent ?: here).
-    // As 255 - max over (255 - j masked to the lanes at the minimum, others 0).
-    int16_t j_min_rev = 0;
+    // Smallest index reaching the minimum, as 255 - max(255 - j) over the lanes at the
+    // minimum (the others masked to 0): a signed max reduction that SSE2 has.
+    int16_t j_best_rev = 0;
     for (int j = 0; j < num_valid; ++j) {
       const auto at_min =
           static_cast<uint16_t>(-static_cast<uint16_t>(static_cast<int16_t>(sums[j]) == c_min));
-      j_min_rev = std::max(j_min_rev, static_cast<int16_t>(kIndex.reversed[j] & at_min));
+      j_best_rev = std::max(j_best_rev, static_cast<int16_t>(kIndex.reversed[j] & at_min));
     }
-    const int j_min = 255 - j_min_rev;
-    const int j_best = j_min;
+    const int j_best = 255 - j_best_rev;
     const int c_best = c_min;
 
     if (setup.uniqueness_percent > 0) {
@@ -453,8 +451,8 @@ Status DenseSadOptions::validate() const {
   } else if (min_disparity_px < 0) {
     msg << "min_disparity_px = " << min_disparity_px << "; must be >= 0";
   } else if (max_disparity_px < min_disparity_px) {
-    msg << "max_disparity_px = " << max_disparity_px << "; must be >= min_disparity_px = "
-        << min_disparity_px;
+    msg << "max_disparity_px = " << max_disparity_px
+        << "; must be >= min_disparity_px = " << min_disparity_px;
   } else if (max_disparity_px - min_disparity_px > 255) {
     msg << "max_disparity_px - min_disparity_px = " << max_disparity_px - min_disparity_px
         << "; must be <= 255 (at most 256 disparities)";
@@ -612,8 +610,10 @@ Status leftRightCheck(const ImageF32& right_disparity, float tolerance_px, Image
   }
   std::vector<int16_t> left_fixed;
   std::vector<int16_t> right_fixed;
-  if (Status s = floatToFixed(*disparity, &left_fixed); !s) return Status::error("leftRightCheck: " + s.message());
-  if (Status s = floatToFixed(right_disparity, &right_fixed); !s) return Status::error("leftRightCheck: " + s.message());
+  if (Status s = floatToFixed(*disparity, &left_fixed); !s)
+    return Status::error("leftRightCheck: " + s.message());
+  if (Status s = floatToFixed(right_disparity, &right_fixed); !s)
+    return Status::error("leftRightCheck: " + s.message());
   leftRightCheckFixed(FixedMap{right_disparity.width, right_disparity.height, right_fixed.data()},
                       static_cast<int>(std::floor(tolerance_px * kFixedOne)),
                       FixedMap{disparity->width, disparity->height, left_fixed.data()});
@@ -630,7 +630,8 @@ Status propagateDisparity(int window_width_px, ImageF32* disparity) {
     return Status::error(msg.str());
   }
   std::vector<int16_t> in;
-  if (Status s = floatToFixed(*disparity, &in); !s) return Status::error("propagateDisparity: " + s.message());
+  if (Status s = floatToFixed(*disparity, &in); !s)
+    return Status::error("propagateDisparity: " + s.message());
   std::vector<int16_t> out(in.size());
   propagateFixed(FixedMap{disparity->width, disparity->height, in.data()},
                  window_width_px,
@@ -641,15 +642,16 @@ Status propagateDisparity(int window_width_px, ImageF32* disparity) {
 
 Status medianFilterDisparity(int width_px, int height_px, ImageF32* disparity) {
   if (Status s = checkMap(disparity, "medianFilterDisparity: disparity"); !s) return s;
-  if (width_px < 1 || width_px % 2 == 0 || width_px > 255 || height_px < 1 ||
-      height_px % 2 == 0 || height_px > 255) {
+  if (width_px < 1 || width_px % 2 == 0 || width_px > 255 || height_px < 1 || height_px % 2 == 0 ||
+      height_px > 255) {
     std::ostringstream msg;
     msg << "medianFilterDisparity: window " << width_px << "x" << height_px
         << "; both sizes must be odd and in [1, 255]";
     return Status::error(msg.str());
   }
   std::vector<int16_t> in;
-  if (Status s = floatToFixed(*disparity, &in); !s) return Status::error("medianFilterDisparity: " + s.message());
+  if (Status s = floatToFixed(*disparity, &in); !s)
+    return Status::error("medianFilterDisparity: " + s.message());
   std::vector<int16_t> out(in.size());
   medianFixed(FixedMap{disparity->width, disparity->height, in.data()},
               width_px,

@@ -151,10 +151,18 @@ void prefixSse2(const uint8_t* win,
   for (int g = 0; g < padded; g += 64) {
     const uint8_t* s = strip + g;
     switch (std::min(4, (padded - g) / 16)) {
-      case 1: sse2PrefixGroup<1>(win, s, ends, num_ends, outs, g); break;
-      case 2: sse2PrefixGroup<2>(win, s, ends, num_ends, outs, g); break;
-      case 3: sse2PrefixGroup<3>(win, s, ends, num_ends, outs, g); break;
-      default: sse2PrefixGroup<4>(win, s, ends, num_ends, outs, g); break;
+      case 1:
+        sse2PrefixGroup<1>(win, s, ends, num_ends, outs, g);
+        break;
+      case 2:
+        sse2PrefixGroup<2>(win, s, ends, num_ends, outs, g);
+        break;
+      case 3:
+        sse2PrefixGroup<3>(win, s, ends, num_ends, outs, g);
+        break;
+      default:
+        sse2PrefixGroup<4>(win, s, ends, num_ends, outs, g);
+        break;
     }
   }
 }
@@ -170,10 +178,18 @@ void zeroMeanSse2(const uint8_t* win,
     const uint8_t* s = strip + g;
     const int16_t* o = offsets + g;
     switch (std::min(4, (padded - g) / 16)) {
-      case 1: sse2ZeroMeanGroup<1>(win, w, s, o, cost + g); break;
-      case 2: sse2ZeroMeanGroup<2>(win, w, s, o, cost + g); break;
-      case 3: sse2ZeroMeanGroup<3>(win, w, s, o, cost + g); break;
-      default: sse2ZeroMeanGroup<4>(win, w, s, o, cost + g); break;
+      case 1:
+        sse2ZeroMeanGroup<1>(win, w, s, o, cost + g);
+        break;
+      case 2:
+        sse2ZeroMeanGroup<2>(win, w, s, o, cost + g);
+        break;
+      case 3:
+        sse2ZeroMeanGroup<3>(win, w, s, o, cost + g);
+        break;
+      default:
+        sse2ZeroMeanGroup<4>(win, w, s, o, cost + g);
+        break;
     }
   }
 }
@@ -248,10 +264,18 @@ __attribute__((target("avx2"))) void prefixAvx2(const uint8_t* win,
   for (int g = 0; g < padded; g += 128) {
     const uint8_t* s = strip + g;
     switch (std::min(4, (padded - g) / 32)) {
-      case 1: avx2PrefixGroup<1>(win, s, ends, num_ends, outs, g); break;
-      case 2: avx2PrefixGroup<2>(win, s, ends, num_ends, outs, g); break;
-      case 3: avx2PrefixGroup<3>(win, s, ends, num_ends, outs, g); break;
-      default: avx2PrefixGroup<4>(win, s, ends, num_ends, outs, g); break;
+      case 1:
+        avx2PrefixGroup<1>(win, s, ends, num_ends, outs, g);
+        break;
+      case 2:
+        avx2PrefixGroup<2>(win, s, ends, num_ends, outs, g);
+        break;
+      case 3:
+        avx2PrefixGroup<3>(win, s, ends, num_ends, outs, g);
+        break;
+      default:
+        avx2PrefixGroup<4>(win, s, ends, num_ends, outs, g);
+        break;
     }
   }
 }
@@ -292,13 +316,13 @@ Status checkInputs(const ImageU8& left,
   if (out == nullptr) return Status::error("out is null");
   if (left.empty() || right.empty()) {
     return Status::error("empty image: left is " + std::to_string(left.width) + "x" +
-                         std::to_string(left.height) + ", right is " +
-                         std::to_string(right.width) + "x" + std::to_string(right.height));
+                         std::to_string(left.height) + ", right is " + std::to_string(right.width) +
+                         "x" + std::to_string(right.height));
   }
   if (left.width != right.width || left.height != right.height) {
     return Status::error("image sizes differ: left is " + std::to_string(left.width) + "x" +
-                         std::to_string(left.height) + ", right is " +
-                         std::to_string(right.width) + "x" + std::to_string(right.height));
+                         std::to_string(left.height) + ", right is " + std::to_string(right.width) +
+                         "x" + std::to_string(right.height));
   }
   const size_t pixels = static_cast<size_t>(left.width) * static_cast<size_t>(left.height);
   if (left.width <= 0 || left.height <= 0 || left.data.size() != pixels ||
@@ -308,10 +332,10 @@ Status checkInputs(const ImageU8& left,
   const Status valid = options.validate();
   if (!valid.isOk()) return valid;
   if (options.max_disparity_px + options.window_width_px > left.width) {
-    return Status::error(
-        "max_disparity_px + window_width_px = " +
-        std::to_string(options.max_disparity_px + options.window_width_px) +
-        " exceeds the image width " + std::to_string(left.width) + "; no pixel can be matched");
+    return Status::error("max_disparity_px + window_width_px = " +
+                         std::to_string(options.max_disparity_px + options.window_width_px) +
+                         " exceeds the image width " + std::to_string(left.width) +
+                         "; no pixel can be matched");
   }
   return Status::ok();
 }
@@ -373,8 +397,7 @@ void costCurve(SadKernel kernel,
                CurveScratch* scratch,
                uint16_t* cost) {
   const int padded = internal::paddedLength(n, kernel);
-  const uint8_t* strip =
-      stripFor(image, row, base, static_cast<size_t>(padded + w - 1), scratch);
+  const uint8_t* strip = stripFor(image, row, base, static_cast<size_t>(padded + w - 1), scratch);
   const int16_t* offsets = nullptr;
   if (zero_mean) {
     windowOffsets(win, w, strip, n, padded, scratch->offsets);
@@ -522,9 +545,12 @@ SadKernel resolveKernel(SadKernel kernel) {
 
 int paddedLength(int n, SadKernel kernel) {
   switch (resolveKernel(kernel)) {
-    case SadKernel::kSse2: return roundUp(n, 16);
-    case SadKernel::kAvx2: return roundUp(n, 32);
-    default: return n;
+    case SadKernel::kSse2:
+      return roundUp(n, 16);
+    case SadKernel::kAvx2:
+      return roundUp(n, 32);
+    default:
+      return n;
   }
 }
 
@@ -537,12 +563,18 @@ void sadPrefixCurves(SadKernel kernel,
                      uint16_t* const* outs) {
   switch (resolveKernel(kernel)) {
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
-    case SadKernel::kAvx2: prefixAvx2(win, strip, n, ends, num_ends, outs); return;
+    case SadKernel::kAvx2:
+      prefixAvx2(win, strip, n, ends, num_ends, outs);
+      return;
 #endif
 #if defined(__SSE2__)
-    case SadKernel::kSse2: prefixSse2(win, strip, n, ends, num_ends, outs); return;
+    case SadKernel::kSse2:
+      prefixSse2(win, strip, n, ends, num_ends, outs);
+      return;
 #endif
-    default: prefixScalar(win, strip, n, ends, num_ends, outs); return;
+    default:
+      prefixScalar(win, strip, n, ends, num_ends, outs);
+      return;
   }
 }
 
@@ -559,12 +591,18 @@ void sadCurve(SadKernel kernel,
   }
   switch (resolveKernel(kernel)) {
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
-    case SadKernel::kAvx2: zeroMeanAvx2(win, w, strip, offsets, n, cost); return;
+    case SadKernel::kAvx2:
+      zeroMeanAvx2(win, w, strip, offsets, n, cost);
+      return;
 #endif
 #if defined(__SSE2__)
-    case SadKernel::kSse2: zeroMeanSse2(win, w, strip, offsets, n, cost); return;
+    case SadKernel::kSse2:
+      zeroMeanSse2(win, w, strip, offsets, n, cost);
+      return;
 #endif
-    default: zeroMeanScalar(win, w, strip, offsets, n, cost); return;
+    default:
+      zeroMeanScalar(win, w, strip, offsets, n, cost);
+      return;
   }
 }
 
@@ -573,14 +611,16 @@ void sadCurve(SadKernel kernel,
 bool sadKernelAvailable(SadKernel kernel) {
   switch (kernel) {
     case SadKernel::kAuto:
-    case SadKernel::kScalar: return true;
+    case SadKernel::kScalar:
+      return true;
     case SadKernel::kSse2:
 #if defined(__SSE2__)
       return true;
 #else
       return false;
 #endif
-    case SadKernel::kAvx2: return cpuHasAvx2();
+    case SadKernel::kAvx2:
+      return cpuHasAvx2();
   }
   return false;
 }
@@ -603,8 +643,7 @@ Status SalientSadOptions::validate() const {
                 std::to_string(max_disparity_px - min_disparity_px + 1) + "; must be <= 256");
   }
   if (row_tolerance_px < 0 || row_tolerance_px > kMaxRowTolerance) {
-    return fail("row_tolerance_px = " + std::to_string(row_tolerance_px) +
-                "; must be in [0, 8]");
+    return fail("row_tolerance_px = " + std::to_string(row_tolerance_px) + "; must be in [0, 8]");
   }
   if (max_hypotheses < 1 || max_hypotheses > kMaxHypothesesLimit) {
     return fail("max_hypotheses = " + std::to_string(max_hypotheses) + "; must be in [1, 255]");
@@ -674,8 +713,8 @@ Status matchSalient(const ImageU8& left,
 
     // One pass over the 2W-1 columns u-2h..u+2h gives all three alignments when they share
     // the full disparity range (plain SAD; zero-mean offsets differ per window).
-    const bool fused = num_alignments == 3 && !options.zero_mean && u - 2 * h >= d_max &&
-                       u + 2 * h < width;
+    const bool fused =
+        num_alignments == 3 && !options.zero_mean && u - 2 * h >= d_max && u + 2 * h < width;
 
     // Rows in the order 0, -1, +1, -2, +2, ... so that equal costs prefer small offsets.
     int num_curves = 0;
@@ -686,12 +725,12 @@ Status matchSalient(const ImageU8& left,
       if (fused) {
         const int n = d_max - d_min + 1;
         const int span = 4 * h + 1;
-        const uint8_t* strip = stripFor(right,
-                                        v + r,
-                                        u - 2 * h - d_max,
-                                        static_cast<size_t>(internal::paddedLength(n, kernel) +
-                                                            span - 1),
-                                        &scratch);
+        const uint8_t* strip =
+            stripFor(right,
+                     v + r,
+                     u - 2 * h - d_max,
+                     static_cast<size_t>(internal::paddedLength(n, kernel) + span - 1),
+                     &scratch);
         Curve* centre = &curves[num_curves];
         Curve* ends_at_u = &curves[num_curves + 1];
         Curve* starts_at_u = &curves[num_curves + 2];
@@ -706,8 +745,7 @@ Status matchSalient(const ImageU8& left,
         }
         // Prefix ends: h, 2h, 2h+1 (= window ending at u), 3h+1, 4h+1.
         const int ends[5] = {h, 2 * h, 2 * h + 1, 3 * h + 1, 4 * h + 1};
-        uint16_t* const outs[5] = {
-            prefix[0], prefix[1], ends_at_u->cost, prefix[2], prefix[3]};
+        uint16_t* const outs[5] = {prefix[0], prefix[1], ends_at_u->cost, prefix[2], prefix[3]};
         internal::sadPrefixCurves(kernel, left.row(v) + (u - 2 * h), strip, n, ends, 5, outs);
         for (int j = 0; j < n; ++j) {
           centre->cost[j] = static_cast<uint16_t>(prefix[2][j] - prefix[0][j]);
@@ -732,8 +770,7 @@ Status matchSalient(const ImageU8& left,
         curve.align_px = a;
         curve.d_hi = d_hi;
         curve.n = d_hi - d_min + 1;
-        curve.cost =
-            curve_storage.data() + static_cast<size_t>(num_curves) * kCurveStride + kGuard;
+        curve.cost = curve_storage.data() + static_cast<size_t>(num_curves) * kCurveStride + kGuard;
         costCurve(kernel,
                   left.row(v) + start,
                   w,
@@ -815,7 +852,8 @@ Status matchSalient(const ImageU8& left,
         const int t_lo = std::max(0, cand.d_px - options.lr_tolerance_px - d_min);
         const int t_hi = std::min(back_n - 1, cand.d_px + options.lr_tolerance_px - d_min);
         int near_best = INT_MAX;
-        for (int t = t_lo; t <= t_hi; ++t) near_best = std::min(near_best, static_cast<int>(back[t]));
+        for (int t = t_lo; t <= t_hi; ++t)
+          near_best = std::min(near_best, static_cast<int>(back[t]));
         hyp.lr_consistent = near_best == minCost(back, back_n);
       }
       out->hypotheses.push_back(hyp);
@@ -826,7 +864,9 @@ Status matchSalient(const ImageU8& left,
   return Status::ok();
 }
 
-const DisparityHypothesis* confidentBest(const StereoHypotheses& hyps, const SalientPoint& point) {
+const DisparityHypothesis* confidentBest(const StereoHypotheses& hyps,
+                                         const SalientPoint& point,
+                                         float agree_px) {
   if (point.num_hypotheses == 0) return nullptr;
   TWOCAM_CHECK(static_cast<size_t>(point.first_hypothesis) + point.num_hypotheses <=
                hyps.hypotheses.size())
@@ -835,7 +875,9 @@ const DisparityHypothesis* confidentBest(const StereoHypotheses& hyps, const Sal
   const DisparityHypothesis* first = &hyps.hypotheses[point.first_hypothesis];
   if (!first->lr_consistent) return nullptr;
   for (uint32_t k = 1; k < point.num_hypotheses; ++k) {
-    if (first[k].lr_consistent) return nullptr;
+    if (first[k].lr_consistent && std::abs(first[k].d_px - first->d_px) > agree_px) {
+      return nullptr;
+    }
   }
   return first;
 }
@@ -912,21 +954,19 @@ Status pairCorners(const ImageU8& left,
       if (vr < 0 || vr >= height) continue;
       const auto first = by_row.begin() + row_begin[vr];
       const auto last = by_row.begin() + row_begin[vr + 1];
-      auto it = std::lower_bound(
-          first, last, u_lo, [&right_corners](uint32_t i, int col) {
-            return right_corners[i].u_px < col;
-          });
+      auto it = std::lower_bound(first, last, u_lo, [&right_corners](uint32_t i, int col) {
+        return right_corners[i].u_px < col;
+      });
       for (; it != last && right_corners[*it].u_px <= u_hi; ++it) {
         const int ur = right_corners[*it].u_px;
         int cost = windowCost(win, right.row(vr) + (ur - h), w, options.zero_mean);
         if (options.shiftable_windows) {
           for (const int a : {-h, h}) {
             if (std::min(u, ur) + a - h < 0 || std::max(u, ur) + a + h >= width) continue;
-            cost = std::min(cost,
-                            windowCost(left.row(v) + (u + a - h),
-                                       right.row(vr) + (ur + a - h),
-                                       w,
-                                       options.zero_mean));
+            cost = std::min(
+                cost,
+                windowCost(
+                    left.row(v) + (u + a - h), right.row(vr) + (ur + a - h), w, options.zero_mean));
           }
         }
         pairs.push_back({cost, u - ur, r, *it});

@@ -5,13 +5,12 @@
 //       --benchmark_repetitions=5   (one command line)
 // and compare medians.
 
-#include <cmath>
-#include <vector>
-
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "bench_data.h"
 #include "frontend/cv_interop.h"
@@ -47,10 +46,10 @@ void runDenseSad(benchmark::State& state, const std::vector<frontend::PostStep>&
     benchmark::ClobberMemory();
   }
   state.counters["good1"] = goodFraction(disparity, pair.disparity);
-  state.counters["MP/s"] = benchmark::Counter(
-      static_cast<double>(pair.left.width) * pair.left.height * 1e-6 *
-          static_cast<double>(state.iterations()),
-      benchmark::Counter::kIsRate);
+  state.counters["MP/s"] =
+      benchmark::Counter(static_cast<double>(pair.left.width) * pair.left.height * 1e-6 *
+                             static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate);
 }
 
 void BM_DenseSadPlain(benchmark::State& state) {
@@ -89,10 +88,10 @@ void BM_CvStereoBM(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.counters["good1"] = goodFraction(fromCvDisparity(disparity), pair.disparity);
-  state.counters["MP/s"] = benchmark::Counter(
-      static_cast<double>(pair.left.width) * pair.left.height * 1e-6 *
-          static_cast<double>(state.iterations()),
-      benchmark::Counter::kIsRate);
+  state.counters["MP/s"] =
+      benchmark::Counter(static_cast<double>(pair.left.width) * pair.left.height * 1e-6 *
+                             static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_CvStereoBM)->Unit(benchmark::kMillisecond);
 
@@ -121,10 +120,10 @@ void BM_CvStereoSGBM(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.counters["good1"] = goodFraction(fromCvDisparity(disparity), pair.disparity);
-  state.counters["MP/s"] = benchmark::Counter(
-      static_cast<double>(pair.left.width) * pair.left.height * 1e-6 *
-          static_cast<double>(state.iterations()),
-      benchmark::Counter::kIsRate);
+  state.counters["MP/s"] =
+      benchmark::Counter(static_cast<double>(pair.left.width) * pair.left.height * 1e-6 *
+                             static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_CvStereoSGBM)->Unit(benchmark::kMillisecond);
 

@@ -439,5 +439,49 @@ TEST(DisparityFromDepth, BadInputGivesErrors) {
   EXPECT_FALSE(disparityFromDepth(inconsistent, testRig(), &gt).isOk());
 }
 
+// ---------------------------------------------------------------------------------------------
+// Occlusion from the left ground truth
+
+TEST(NonOccludedMask, NearSurfaceHidesTheBackgroundToItsLeftAndTheEdgeIsOccluded) {
+  // One row: background d = 2 at u < 10, a nearer box d = 6 at u >= 10. The right camera sees
+  // the box shifted 6 px and the background 2 px: background pixels u in [7, 10) land at
+  // u - 2 in [5, 8), at least half a pixel right of the box's leftmost landing 10 - 6 = 4, so
+  // the box hides them (u = 6 lands exactly on the box's edge and stays visible). Pixels u < 2
+  // land left of the right image.
+  constexpr int kW = 20;
+  DisparityGroundTruth gt{ImageF32(kW, 1), ImageU8(kW, 1, 1)};
+  for (int u = 0; u < kW; ++u) gt.d_px(u, 0) = u < 10 ? 2.0f : 6.0f;
+  gt.valid(15, 0) = 0;  // unknown: neither evaluated nor hiding anything
+  ImageU8 mask;
+  nonOccludedMask(gt, &mask);
+  ASSERT_EQ(mask.width, kW);
+  for (int u = 0; u < kW; ++u) {
+    uint8_t expected = 255;
+    if (u < 2 || (u >= 7 && u < 10)) expected = 128;
+    if (u == 15) expected = 0;
+    EXPECT_EQ(mask(u, 0), expected) << "u = " << u;
+  }
+}
+
+TEST(NonOccludedMask, TsukubaOccludesAFewPercent) {
+  TWOCAM_REQUIRE_SHARED_DATA(data);
+  DisparityGroundTruth gt;
+  ASSERT_TRUE(loadDisparityGroundTruth(data + "/middlebury/tsukuba/disp3.pgm", 16.0, std::nullopt,
+                                       &gt)
+                  .isOk());
+  ImageU8 mask;
+  nonOccludedMask(gt, &mask);
+  size_t valid = 0;
+  size_t visible = 0;
+  for (size_t i = 0; i < mask.data.size(); ++i) {
+    valid += gt.valid.data[i] != 0 ? 1 : 0;
+    visible += mask.data[i] == 255 ? 1 : 0;
+  }
+  // Tsukuba has narrow occlusions at the left of each foreground object (a few px wide).
+  const double occluded_pct = 100.0 * static_cast<double>(valid - visible) / valid;
+  EXPECT_GT(occluded_pct, 1.0);
+  EXPECT_LT(occluded_pct, 6.0);
+}
+
 }  // namespace
 }  // namespace twocam::eval

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <string>
 #include <vector>
@@ -125,8 +126,8 @@ SyntheticPair makeLayeredPair(uint32_t seed, int width, int height, double noise
 
 /// A row-wise continuous texture (random sinusoids), area-sampled into pixels (16 samples per
 /// pixel), the right view shifted by d_sixteenths / 16 px: the truth is exact.
-void makeSubpixelPair(uint32_t seed, int d_sixteenths, int width, int height, ImageU8* l,
-                      ImageU8* r) {
+void makeSubpixelPair(
+    uint32_t seed, int d_sixteenths, int width, int height, ImageU8* l, ImageU8* r) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   *l = ImageU8(width, height);
@@ -343,10 +344,31 @@ TEST(DenseSad, MatchesBruteForceReferenceBitForBit) {
     ImageF32 d;
     ASSERT_TRUE(matcher.compute(left, right, o, &d).isOk());
     const ReferenceMaps ref = referenceMatch(left, right, o);
-    EXPECT_EQ(countDifferences(d, ref.left), 0u) << "window " << c.window << " d " << c.min_d
-                                                 << ".." << c.max_d;
+    EXPECT_EQ(countDifferences(d, ref.left), 0u)
+        << "window " << c.window << " d " << c.min_d << ".." << c.max_d;
     EXPECT_EQ(countDifferences(matcher.rightDisparity(), ref.right), 0u)
         << "window " << c.window << " d " << c.min_d << ".." << c.max_d;
+  }
+}
+
+TEST(DenseSad, ImagesNarrowerThanTheWindowMatchTheReference) {
+  uint32_t seed = 300;
+  for (int width = 1; width <= 9; ++width) {
+    const ImageU8 left = randomImage(seed++, width, 3);
+    const ImageU8 right = randomImage(seed++, width, 3);
+    DenseSadOptions o;
+    o.window_width_px = 21;
+    o.max_disparity_px = width - 1;
+    o.subpixel = true;
+    DenseSadOptions raw = o;
+    raw.steps.clear();
+    DenseSadMatcher matcher;
+    ImageF32 d;
+    ASSERT_TRUE(matcher.compute(left, right, raw, &d).isOk()) << "width " << width;
+    const ReferenceMaps ref = referenceMatch(left, right, raw);
+    EXPECT_EQ(countDifferences(d, ref.left), 0u) << "width " << width;
+    EXPECT_EQ(countDifferences(matcher.rightDisparity(), ref.right), 0u) << "width " << width;
+    ASSERT_TRUE(matcher.compute(left, right, o, &d).isOk()) << "width " << width;
   }
 }
 
@@ -606,14 +628,15 @@ TEST(DenseSadPost, DefaultsGetACleanSyntheticSceneRight) {
 TEST(DenseSadOptions, ParsesStepLists) {
   std::vector<PostStep> steps;
   ASSERT_TRUE(parsePostSteps("lrc,prop,median", &steps).isOk());
-  EXPECT_EQ(steps, (std::vector<PostStep>{PostStep::kLeftRightCheck,
-                                          PostStep::kPropagation,
-                                          PostStep::kMedian}));
+  EXPECT_EQ(steps,
+            (std::vector<PostStep>{
+                PostStep::kLeftRightCheck, PostStep::kPropagation, PostStep::kMedian}));
   ASSERT_TRUE(parsePostSteps(" Median , LR,propagation,med ", &steps).isOk());
-  EXPECT_EQ(steps, (std::vector<PostStep>{PostStep::kMedian,
-                                          PostStep::kLeftRightCheck,
-                                          PostStep::kPropagation,
-                                          PostStep::kMedian}));
+  EXPECT_EQ(steps,
+            (std::vector<PostStep>{PostStep::kMedian,
+                                   PostStep::kLeftRightCheck,
+                                   PostStep::kPropagation,
+                                   PostStep::kMedian}));
   EXPECT_EQ(formatPostSteps(steps), "median,lrc,prop,median");
   ASSERT_TRUE(parsePostSteps("none", &steps).isOk());
   EXPECT_TRUE(steps.empty());
@@ -669,15 +692,15 @@ TEST(DenseSadInput, BadInputGivesAStatusAndLeavesTheOutputAlone) {
   const ImageF32 sentinel(3, 3, 42.0f);
   DenseSadOptions o;
   o.max_disparity_px = 31;
-  auto fails = [&](const ImageU8& l, const ImageU8& r, const DenseSadOptions& opt,
-                   const char* what) {
-    ImageF32 out = sentinel;
-    const Status s = computeDenseDisparity(l, r, opt, &out);
-    EXPECT_FALSE(s.isOk()) << what;
-    EXPECT_FALSE(s.message().empty()) << what;
-    EXPECT_EQ(out.width, 3) << what;
-    EXPECT_EQ(out.data, sentinel.data) << what;
-  };
+  auto fails =
+      [&](const ImageU8& l, const ImageU8& r, const DenseSadOptions& opt, const char* what) {
+        ImageF32 out = sentinel;
+        const Status s = computeDenseDisparity(l, r, opt, &out);
+        EXPECT_FALSE(s.isOk()) << what;
+        EXPECT_FALSE(s.message().empty()) << what;
+        EXPECT_EQ(out.width, 3) << what;
+        EXPECT_EQ(out.data, sentinel.data) << what;
+      };
   fails(left, randomImage(3, 63, 16), o, "different widths");
   fails(left, randomImage(3, 64, 15), o, "different heights");
   fails(ImageU8(), ImageU8(), o, "empty images");
@@ -717,11 +740,8 @@ struct Middlebury {
   ImageF32 truth;  // 0 = unknown
 };
 
-Middlebury loadMiddlebury(const std::string& dir,
-                          const char* left,
-                          const char* right,
-                          const char* disp,
-                          float scale) {
+Middlebury loadMiddlebury(
+    const std::string& dir, const char* left, const char* right, const char* disp, float scale) {
   Middlebury m;
   EXPECT_TRUE(loadGrey(dir + "/" + left, &m.left).isOk());
   EXPECT_TRUE(loadGrey(dir + "/" + right, &m.right).isOk());
@@ -761,6 +781,89 @@ TEST(DenseSadMiddlebury, VenusWithTheDefaults) {
   const Score s = score(d, m.truth);
   EXPECT_LE(s.bad1_pct, kMaxVenusBad1Pct);
   EXPECT_GE(s.density_pct, kMinFilledDensityPct);
+}
+
+/// Paper C's Table 7.2 on our matcher: every order of steps, in the thesis's setting (1-D 7x1
+/// median, no uniqueness test), with the defaults (7x7 median, uniqueness 10 %) and with the
+/// defaults plus sub-pixel refinement. Prints the
+/// table (the report's source) and checks what it must show: filling after the check gives
+/// full density, the order of the steps matters, and the defaults beat the thesis's setting.
+TEST(DenseSadMiddlebury, PostStepOrderTable) {
+  TWOCAM_REQUIRE_SHARED_DATA(data);
+  struct Scene {
+    const char* name;
+    Middlebury pair;
+    int max_d;
+  };
+  const Scene scenes[] = {
+      {"tsukuba",
+       loadMiddlebury(data + "/middlebury/tsukuba", "im3.png", "im4.png", "disp3.pgm", 16.0f),
+       16},
+      {"venus",
+       loadMiddlebury(data + "/middlebury/venus", "im2.png", "im6.png", "disp2.pgm", 8.0f),
+       20}};
+  const char* orders[] = {"none",
+                          "median",
+                          "lrc",
+                          "lrc,median",
+                          "lrc,prop",
+                          "lrc,median,prop",
+                          "lrc,prop,median",
+                          "median,lrc,prop,median"};
+  for (const Scene& scene : scenes) {
+    ASSERT_FALSE(scene.pair.left.empty());
+    std::printf("%-8s %-9s %-24s %6s %6s %7s %7s\n",
+                "scene",
+                "setting",
+                "steps",
+                "bad1%",
+                "bad2%",
+                "avgerr",
+                "dens%");
+    enum class Setting { kThesis, kDefaults, kSubpixel };
+    for (const Setting setting : {Setting::kThesis, Setting::kDefaults, Setting::kSubpixel}) {
+      const bool thesis_setting = setting == Setting::kThesis;
+      double lrc_prop_med = 0.0, lrc_med_prop = 0.0;
+      for (const char* order : orders) {
+        DenseSadOptions o;
+        o.max_disparity_px = scene.max_d;
+        ASSERT_TRUE(parsePostSteps(order, &o.steps).isOk());
+        if (thesis_setting) {
+          o.median_height_px = 1;
+          o.uniqueness_percent = 0;
+        }
+        o.subpixel = setting == Setting::kSubpixel;
+        ImageF32 d;
+        ASSERT_TRUE(computeDenseDisparity(scene.pair.left, scene.pair.right, o, &d).isOk());
+        const Score s = score(d, scene.pair.truth);
+        std::printf("%-8s %-9s %-24s %6.2f %6.2f %7.3f %7.2f\n",
+                    scene.name,
+                    thesis_setting ? "7x1,u0" : (o.subpixel ? "subpixel" : "defaults"),
+                    order,
+                    s.bad1_pct,
+                    s.bad2_pct,
+                    s.avgerr_px,
+                    s.density_pct);
+        const std::string steps = order;
+        if (steps.find("lrc,prop") != std::string::npos ||
+            steps.find("lrc,median,prop") != std::string::npos) {
+          EXPECT_GE(s.density_pct, kMinFilledDensityPct) << scene.name << " " << order;
+        }
+        if (steps == "lrc,prop,median") lrc_prop_med = s.bad1_pct;
+        if (steps == "lrc,median,prop") lrc_med_prop = s.bad1_pct;
+        if (setting == Setting::kDefaults && steps == "lrc,prop,median") {
+          DenseSadOptions thesis;
+          thesis.max_disparity_px = scene.max_d;
+          thesis.median_height_px = 1;
+          thesis.uniqueness_percent = 0;
+          ImageF32 dt;
+          ASSERT_TRUE(computeDenseDisparity(scene.pair.left, scene.pair.right, thesis, &dt).isOk());
+          EXPECT_LT(s.bad1_pct, score(dt, scene.pair.truth).bad1_pct) << scene.name;
+        }
+      }
+      EXPECT_NE(lrc_prop_med, lrc_med_prop) << scene.name << ": the order must matter";
+    }
+  }
 }
 
 }  // namespace

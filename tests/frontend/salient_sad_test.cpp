@@ -5,13 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <random>
-#include <string>
-#include <vector>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "frontend/cv_interop.h"
 #include "support/test_paths.h"
@@ -53,8 +52,8 @@ cv::Mat randomTexture(int width, int height, uint64_t seed, double lo = 0.0, dou
   return out;
 }
 
-/// left(u, v) = T(u, v), right(u, v) = T(u + d, v + dv): the right view of a fronto-parallel
-/// plane at disparity d, dv rows off (T is wider and taller than the images).
+/// Crops of T such that right(u - d, v + dv) = left(u, v): the right view of a fronto-parallel
+/// plane at disparity d, dv rows low (T is wider and taller than the images).
 StereoPair shiftedPair(const cv::Mat& tex, int width, int height, int d, int dv = 0) {
   cv::Mat left = tex(cv::Rect(0, 8, width, height)).clone();
   cv::Mat right = tex(cv::Rect(d, 8 - dv, width, height)).clone();
@@ -124,9 +123,8 @@ TEST(SalientSadOptions, NamesTheBrokenConstraint) {
   add("window_width_px", [](SalientSadOptions& o) { o.window_width_px = 65; });
   add("min_disparity_px", [](SalientSadOptions& o) { o.min_disparity_px = -1; });
   add("max_disparity_px", [](SalientSadOptions& o) { o.max_disparity_px = -2; });
-  add("max_disparity_px - min_disparity_px", [](SalientSadOptions& o) {
-    o.max_disparity_px = 300;
-  });
+  add("max_disparity_px - min_disparity_px",
+      [](SalientSadOptions& o) { o.max_disparity_px = 300; });
   add("row_tolerance_px", [](SalientSadOptions& o) { o.row_tolerance_px = -1; });
   add("row_tolerance_px", [](SalientSadOptions& o) { o.row_tolerance_px = 9; });
   add("max_hypotheses", [](SalientSadOptions& o) { o.max_hypotheses = 0; });
@@ -152,7 +150,9 @@ TEST(SalientSad, RejectsBadInput) {
 
   StereoHypotheses out;
   out.points.resize(3);  // must stay untouched on error
-  auto expectError = [&](const ImageU8& l, const ImageU8& r, const SalientSadOptions& o,
+  auto expectError = [&](const ImageU8& l,
+                         const ImageU8& r,
+                         const SalientSadOptions& o,
                          const std::string& needle) {
     Status s = matchSalient(l, r, corners, o, &out);
     EXPECT_FALSE(s.isOk());
@@ -193,8 +193,8 @@ TEST(SalientSad, IntegerShiftFindsTrueDisparityConsistently) {
   for (const SalientPoint& p : out.points) {
     const DisparityHypothesis* h = best(out, p);
     ASSERT_NE(h, nullptr);
-    EXPECT_NEAR(h->d_px, kD, kIntegerShiftTolPx) << "corner " << p.corner.u_px << ","
-                                                 << p.corner.v_px;
+    EXPECT_NEAR(h->d_px, kD, kIntegerShiftTolPx)
+        << "corner " << p.corner.u_px << "," << p.corner.v_px;
     EXPECT_EQ(h->cost, 0.0f);
     EXPECT_EQ(h->row_offset_px, 0);
     EXPECT_TRUE(h->lr_consistent);
@@ -462,6 +462,41 @@ TEST(SalientSad, CostGateDropsWeakHypotheses) {
   EXPECT_LT(gated.hypotheses.size(), open.hypotheses.size() / 2);
 }
 
+TEST(ConfidentBest, AcceptsOnlyAnUncontestedConsistentBest) {
+  StereoHypotheses hyps;
+  auto point = [&hyps](std::vector<std::pair<float, bool>> list) {
+    SalientPoint p;
+    p.first_hypothesis = static_cast<uint32_t>(hyps.hypotheses.size());
+    p.num_hypotheses = static_cast<uint32_t>(list.size());
+    for (const auto& [d, lr] : list) {
+      DisparityHypothesis h;
+      h.d_px = d;
+      h.lr_consistent = lr;
+      hyps.hypotheses.push_back(h);
+    }
+    hyps.points.push_back(p);
+  };
+  point({});                              // no hypotheses
+  point({{7.0f, false}, {12.0f, true}});  // best inconsistent
+  point({{7.0f, true}, {12.0f, true}});   // consistent rival at another depth
+  point({{7.0f, true}, {7.9f, true}});    // consistent rival, same answer within 1 px
+  point({{7.0f, true}, {12.0f, false}, {3.0f, false}});  // rivals inconsistent
+  EXPECT_EQ(confidentBest(hyps, hyps.points[0]), nullptr);
+  EXPECT_EQ(confidentBest(hyps, hyps.points[1]), nullptr);
+  EXPECT_EQ(confidentBest(hyps, hyps.points[2]), nullptr);
+  EXPECT_EQ(confidentBest(hyps, hyps.points[3]), &hyps.hypotheses[4]);
+  EXPECT_EQ(confidentBest(hyps, hyps.points[3], 0.5f), nullptr);
+  EXPECT_EQ(confidentBest(hyps, hyps.points[4]), &hyps.hypotheses[6]);
+}
+
+TEST(ConfidentBestDeathTest, PointOfAnotherFrameAborts) {
+  StereoHypotheses hyps;
+  SalientPoint p;
+  p.first_hypothesis = 3;
+  p.num_hypotheses = 2;
+  EXPECT_DEATH((void)confidentBest(hyps, p), "outside");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Kernels: every SIMD path must equal the scalar one bit for bit.
 
@@ -544,8 +579,13 @@ TEST(SadKernels, PrefixCurvesEqualDirectWindows) {
           prefix[0].data(), prefix[1].data(), prefix[2].data(), prefix[3].data(), prefix[4].data()};
       internal::sadPrefixCurves(k, win.data(), strip.data(), n, ends, 5, outs);
       for (int a = 0; a < 3; ++a) {  // window starting at offset 0, h, 2h
-        internal::sadCurve(
-            SadKernel::kScalar, win.data() + a * h, w, strip.data() + a * h, nullptr, n, direct.data());
+        internal::sadCurve(SadKernel::kScalar,
+                           win.data() + a * h,
+                           w,
+                           strip.data() + a * h,
+                           nullptr,
+                           n,
+                           direct.data());
         for (int j = 0; j < n; ++j) {
           const int from_prefix =
               a == 0 ? prefix[2][j]
@@ -693,9 +733,9 @@ TEST(PairCorners, KeepsTheKCheapestAndFlagsMutualBest) {
   SalientSadOptions options;
   options.max_hypotheses = 2;
   StereoHypotheses out;
-  ASSERT_TRUE(pairCorners(
-                  toImageU8(left), toImageU8(right), left_corners, right_corners, options, &out)
-                  .isOk());
+  ASSERT_TRUE(
+      pairCorners(toImageU8(left), toImageU8(right), left_corners, right_corners, options, &out)
+          .isOk());
   ASSERT_EQ(out.points.size(), 2u);
   expectWellFormed(out, 2);
   // Left 120 pairs with right 120 (d = 0, exact), left 100 with right 100 (exact).
@@ -812,7 +852,8 @@ std::vector<Corner> harrisCorners(const cv::Mat& grey, int max_corners) {
   std::vector<Corner> corners;
   corners.reserve(pts.size());
   for (const cv::Point2f& p : pts) {
-    corners.push_back({static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y)), 1.0f});
+    corners.push_back(
+        {static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y)), 1.0f});
   }
   return corners;
 }
@@ -911,7 +952,9 @@ INSTANTIATE_TEST_SUITE_P(
     MiddleburyTest,
     ::testing::Values(MiddleburyScene{"tsukuba", "im3.png", "im4.png", "disp3.pgm", 16.0, 16},
                       MiddleburyScene{"venus", "im2.png", "im6.png", "disp2.pgm", 8.0, 20}),
-    [](const ::testing::TestParamInfo<MiddleburyScene>& scene_info) { return scene_info.param.name; });
+    [](const ::testing::TestParamInfo<MiddleburyScene>& scene_info) {
+      return scene_info.param.name;
+    });
 
 }  // namespace
 }  // namespace twocam::frontend
