@@ -88,6 +88,13 @@ int runSimulate(const SimulateArgs& args) {
   sim::World world;
   if (Status st = sim::loadWorld(args.world_path, &world); !st) return fail(st.message());
   if (args.seed) world.seed = *args.seed;
+  if (args.odometry_noise_scale) {
+    const double f = *args.odometry_noise_scale;
+    if (!std::isfinite(f) || f < 0.0) {
+      return fail("--odometry-noise-scale " + std::to_string(f) + ": must be a finite number >= 0");
+    }
+    world.odometry_noise = sim::scaledOdometryNoise(world.odometry_noise, f);
+  }
   if (args.frames) {
     if (*args.frames < 1) return fail("--frames " + std::to_string(*args.frames) + ": must be >= 1");
     world.frames = *args.frames;
@@ -166,7 +173,7 @@ int runSimulate(const SimulateArgs& args) {
   {
     std::ofstream f(preview_dir + "/simulate.json");
     f << "{\n  \"world\": \"" << world.name << "\",\n  \"world_file\": \"" << args.world_path << "\",\n  \"seed\": " << world.seed
-      << ",\n  \"frames\": " << n << ",\n  \"width_px\": " << world.rig.width_px << ",\n  \"height_px\": " << world.rig.height_px
+      << ",\n  \"odometry_noise_scale\": " << args.odometry_noise_scale.value_or(1.0) << ",\n  \"frames\": " << n << ",\n  \"width_px\": " << world.rig.width_px << ",\n  \"height_px\": " << world.rig.height_px
       << ",\n  \"setup_s\": " << setup_s << ",\n  \"loop_s\": " << loop_s << ",\n  \"frames_per_s\": " << fps
       << ",\n  \"render_ms_median\": " << median(render_ms) << ",\n  \"gt_depth_ms_median\": " << median(depth_ms)
       << ",\n  \"simulate_ms_median\": " << median(sim_ms) << ",\n  \"write_ms_median\": " << median(write_ms)

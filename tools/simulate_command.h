@@ -10,6 +10,8 @@ struct SimulateArgs {
   std::string output_path;
   std::optional<int> frames;
   std::optional<uint64_t> seed;
+  /// Multiplies the world's odometry noise (sim::scaledOdometryNoise); 0 = exact odometry.
+  std::optional<double> odometry_noise_scale;
   /// Folder for the contact sheet, trajectory CSV and timing summary; default "<stem>_preview"
   /// next to the log.
   std::string preview_dir;

@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   simulate->add_option("-o,--output", sim.output_path, "Output rawlog path (external images go to <stem>_Images/)")->required();
   auto* frames_opt = simulate->add_option("--frames", sim_frames, "Number of frames (default: the world's 'frames')");
   auto* seed_opt = simulate->add_option("--seed", sim_seed, "Seed of all random draws (default: the world's 'seed')");
+  double sim_noise_scale = 1.0;
+  auto* noise_opt = simulate->add_option("--odometry-noise-scale", sim_noise_scale, "Multiply the world's odometry noise (0 = exact odometry, 3 = three times the default)");
   simulate->add_option("--preview-dir", sim.preview_dir, "Folder for contact sheet, trajectory CSV and timing (default <stem>_preview)");
   simulate->add_flag("-q,--quiet", sim.quiet, "No progress bar");
 
@@ -60,6 +62,7 @@ int main(int argc, char** argv) {
     if (simulate->parsed()) {
       if (frames_opt->count() > 0) sim.frames = sim_frames;
       if (seed_opt->count() > 0) sim.seed = sim_seed;
+      if (noise_opt->count() > 0) sim.odometry_noise_scale = sim_noise_scale;
       return twocam::tools::runSimulate(sim);
     }
     if (run_cmd->parsed()) {

@@ -47,25 +47,17 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
     *z = gt_depth(u, v);
     return true;
   };
+  if (Status s = tallySalient(hyps, gt_, nullptr, StereoEvalOptions{}, &frontend_); !s) return s;
   for (const SalientPoint& p : hyps.points) {
     float d_gt, z_gt;
     const bool judged = gt_at(p.corner.u_px, p.corner.v_px, &d_gt, &z_gt);
     hyp_total_ += p.num_hypotheses;
     if (!judged) continue;
     hyp_judged_ += p.num_hypotheses;
-    ++points_judged_;
-    points_hypotheses_ += p.num_hypotheses;
-    bool any = false;
-    bool best_wrong = p.num_hypotheses == 0;
     for (uint32_t k = 0; k < p.num_hypotheses; ++k) {
       const DisparityHypothesis& h = hyps.hypotheses[p.first_hypothesis + k];
-      const bool ok = std::abs(h.d_px - d_gt) <= kTruthTolPx;
-      hyp_true_ += ok ? 1 : 0;
-      any = any || ok;
-      if (h.rank == 0 && !ok) best_wrong = true;
+      hyp_true_ += std::abs(h.d_px - d_gt) <= kTruthTolPx ? 1 : 0;
     }
-    points_recalled_ += any ? 1 : 0;
-    points_best_wrong_ += best_wrong ? 1 : 0;
   }
   for (uint64_t id : report.removed_ids) anchors_.erase(id);
   for (uint32_t slot : report.created_slots) {
@@ -107,10 +99,7 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
   m.hypotheses_judged = hyp_judged_;
   m.hypotheses_true_fraction =
       hyp_judged_ > 0 ? static_cast<double>(hyp_true_) / static_cast<double>(hyp_judged_) : std::numeric_limits<double>::quiet_NaN();
-  m.frontend_recall_at_k = percent(points_recalled_, points_judged_);
-  m.frontend_bad1_best = percent(points_best_wrong_, points_judged_);
-  m.frontend_mean_hypotheses =
-      points_judged_ > 0 ? static_cast<double>(points_hypotheses_) / static_cast<double>(points_judged_) : 0.0;
+  m.frontend = frontend_.metrics();
   std::vector<double> errors;
   std::vector<double> frames_to_confirm;
   std::vector<CalibrationRow> rows;
@@ -155,9 +144,11 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
   s << "{\n";
   s << i1 << "\"hypotheses\": {\"total\": " << m.hypotheses_total << ", \"judged\": " << m.hypotheses_judged
     << ", \"true_fraction\": " << num(m.hypotheses_true_fraction) << "},\n";
-  s << i1 << "\"frontend\": {\"recall_at_k\": " << num(m.frontend_recall_at_k)
-    << ", \"bad1_best\": " << num(m.frontend_bad1_best) << ", \"mean_hypotheses\": " << num(m.frontend_mean_hypotheses)
-    << "},\n";
+  const StereoMetrics& f = m.frontend;
+  s << i1 << "\"frontend\": {\"recall_at_k\": " << num(f.recall_at_k) << ", \"recall_at_1\": " << num(f.recall_at_1)
+    << ", \"bad1\": " << num(f.bad1) << ", \"bad2\": " << num(f.bad2) << ", \"avgerr\": " << num(f.avgerr)
+    << ", \"density\": " << num(f.density) << ", \"k\": " << f.k << ", \"mean_hypotheses\": " << num(f.mean_hypotheses)
+    << ", \"points\": " << f.points << ", \"evaluated\": " << f.evaluated << "},\n";
   s << i1 << "\"landmarks\": {\n";
   s << i2 << "\"precision\": " << num(m.precision) << ",\n";
   s << i2 << "\"correct_confirmed\": " << m.correct_confirmed << ",\n";

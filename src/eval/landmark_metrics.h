@@ -14,6 +14,7 @@
 #include "common/rig.h"
 #include "common/status.h"
 #include "eval/disparity_io.h"
+#include "eval/stereo_metrics.h"
 #include "landmarks/landmark_database.h"
 
 namespace twocam::eval {
@@ -31,10 +32,10 @@ struct LandmarkMetrics {
   int64_t hypotheses_total = 0;
   int64_t hypotheses_judged = 0;  ///< with defined ground truth at their pixel
   double hypotheses_true_fraction = 0.0;  ///< true / judged [0, 1]
-  // frontend.* (salient points: the best hypothesis and the first k)
-  double frontend_recall_at_k = 0.0;  ///< percent of judged points with a true hypothesis among all
-  double frontend_bad1_best = 0.0;    ///< percent of judged points whose best hypothesis is wrong
-  double frontend_mean_hypotheses = 0.0;
+  // frontend.*: the salient-mode stereo metrics (stereo_metrics.h, METRICS.md) summed over
+  // every frame's points with ground truth: recall_at_k, recall_at_1, and the single-best
+  // bad1 / bad2 / avgerr / density after the consistency checks.
+  StereoMetrics frontend;
   // landmarks.*
   int64_t confirmed = 0;
   int64_t correct_confirmed = 0;
@@ -80,10 +81,7 @@ class LandmarkEvaluator {
   int64_t hyp_total_ = 0;
   int64_t hyp_judged_ = 0;
   int64_t hyp_true_ = 0;
-  int64_t points_judged_ = 0;
-  int64_t points_recalled_ = 0;
-  int64_t points_best_wrong_ = 0;
-  int64_t points_hypotheses_ = 0;
+  SalientTally frontend_;
 };
 
 /// JSON object with the METRICS.md keys, nested by prefix: {"hypotheses": {...},

@@ -154,11 +154,11 @@ Status evaluateDense(const ImageF32& disparity,
   return Status::ok();
 }
 
-Status evaluateSalient(const StereoHypotheses& hyps,
-                       const DisparityGroundTruth& gt,
-                       const ImageU8* mask,
-                       const StereoEvalOptions& options,
-                       StereoMetrics* metrics) {
+Status tallySalient(const StereoHypotheses& hyps,
+                    const DisparityGroundTruth& gt,
+                    const ImageU8* mask,
+                    const StereoEvalOptions& options,
+                    SalientTally* out) {
   constexpr const char* kWho = "evaluateSalient";
   if (Status s = options.validate(); !s)
     return Status::error(std::string(kWho) + ": " + s.message());
@@ -230,16 +230,51 @@ Status evaluateSalient(const StereoHypotheses& hyps,
         static_cast<double>(best->d_px) - consistent_min <= options.recall_tol_px;
     if (best->lr_consistent && unambiguous) tally.addEstimate(err, options);
   }
+  SalientTally sum = *out;
+  if (sum.k != 0 && sum.k != options.k) {
+    return Status::error(std::string(kWho) + ": cannot add k = " + std::to_string(options.k) +
+                         " to a tally of k = " + std::to_string(sum.k));
+  }
+  sum.k = options.k;
+  sum.points += static_cast<int64_t>(hyps.points.size());
+  sum.evaluated += tally.evaluated;
+  sum.estimated += tally.estimated;
+  sum.bad1 += tally.bad1;
+  sum.bad2 += tally.bad2;
+  sum.abs_err_sum += tally.abs_err_sum;
+  sum.recalled_k += recalled_k;
+  sum.recalled_1 += recalled_1;
+  sum.hypotheses += hypotheses_sum;
+  *out = sum;
+  return Status::ok();
+}
+
+StereoMetrics SalientTally::metrics() const {
+  ErrorTally tally;
+  tally.evaluated = evaluated;
+  tally.estimated = estimated;
+  tally.bad1 = bad1;
+  tally.bad2 = bad2;
+  tally.abs_err_sum = abs_err_sum;
   StereoMetrics m;
   tally.fill(&m);
-  m.k = options.k;
-  m.recall_at_k = percent(recalled_k, tally.evaluated);
-  m.recall_at_1 = percent(recalled_1, tally.evaluated);
-  m.mean_hypotheses = tally.evaluated > 0 ? static_cast<double>(hypotheses_sum) /
-                                                static_cast<double>(tally.evaluated)
-                                          : kNaN;
-  m.points = static_cast<int64_t>(hyps.points.size());
-  *metrics = m;
+  m.k = k;
+  m.recall_at_k = percent(recalled_k, evaluated);
+  m.recall_at_1 = percent(recalled_1, evaluated);
+  m.mean_hypotheses =
+      evaluated > 0 ? static_cast<double>(hypotheses) / static_cast<double>(evaluated) : kNaN;
+  m.points = points;
+  return m;
+}
+
+Status evaluateSalient(const StereoHypotheses& hyps,
+                       const DisparityGroundTruth& gt,
+                       const ImageU8* mask,
+                       const StereoEvalOptions& options,
+                       StereoMetrics* metrics) {
+  SalientTally tally;
+  if (Status s = tallySalient(hyps, gt, mask, options, &tally); !s) return s;
+  *metrics = tally.metrics();
   return Status::ok();
 }
 

@@ -105,6 +105,33 @@ Status evaluateSalient(const StereoHypotheses& hyps,
                        const StereoEvalOptions& options,
                        StereoMetrics* metrics);
 
+/// Salient-mode counts that add up over frames: a run's frontend figures are the metrics of
+/// the summed counts (every evaluated point weighs the same), not a mean of per-frame
+/// percentages. evaluateSalient() is tallySalient() on an empty tally, then metrics().
+struct SalientTally {
+  int k = 0;                 ///< options.k of the tallies (all must share it)
+  int64_t points = 0;        ///< salient points offered
+  int64_t evaluated = 0;     ///< points evaluated (denominator of the percentages)
+  int64_t estimated = 0;     ///< evaluated points with a single-best estimate
+  int64_t bad1 = 0;          ///< estimated points off by more than bad1_px
+  int64_t bad2 = 0;          ///< estimated points off by more than bad2_px
+  int64_t recalled_k = 0;    ///< evaluated points with a true hypothesis among rank < k
+  int64_t recalled_1 = 0;    ///< evaluated points whose best hypothesis is true
+  int64_t hypotheses = 0;    ///< hypotheses of the evaluated points
+  double abs_err_sum = 0.0;  ///< sum of |d - d_gt| over estimated points [px]
+
+  /// The metrics of these counts (ms and s_per_mp left 0).
+  [[nodiscard]] StereoMetrics metrics() const;
+};
+
+/// Adds one frame's salient output to `tally` (same checks and errors as evaluateSalient; on
+/// error the tally is unchanged).
+Status tallySalient(const StereoHypotheses& hyps,
+                    const DisparityGroundTruth& gt,
+                    const ImageU8* mask,
+                    const StereoEvalOptions& options,
+                    SalientTally* tally);
+
 /// Fills ms and s_per_mp = (ms / 1000) / (width * height / 1e6). Non-positive sizes give
 /// s_per_mp = NaN.
 void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics);

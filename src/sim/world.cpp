@@ -230,4 +230,18 @@ Eigen::AlignedBox3d worldBounds(const World& world) {
   return box;
 }
 
+OdometryNoiseSpec scaledOdometryNoise(const OdometryNoiseSpec& spec, double factor) {
+  OdometryNoiseSpec out = spec;
+  out.sigma_per_m *= factor;
+  out.sigma_per_rad *= factor;
+  out.scale_error *= factor;
+  out.wheel_base_error *= factor;
+  for (SlipEvent& slip : out.slips) {
+    slip.dx_m *= factor;
+    slip.dy_m *= factor;
+    slip.dyaw_rad *= factor;
+  }
+  return out;
+}
+
 }  // namespace twocam::sim

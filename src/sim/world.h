@@ -3,12 +3,11 @@
 /// A world file (worlds/*.yaml, format in worlds/README.md) fully determines a simulation.
 /// Frames: world x forward, y left, z up; the robot drives on z = 0 (../shared/METRICS.md).
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "common/rig.h"
 #include "common/status.h"
@@ -28,7 +27,8 @@ enum class TextureKind {
 /// How a surface looks. Lengths are measured on the surface [m]; grey levels in [0, 255].
 struct TextureSpec {
   TextureKind kind = TextureKind::kBlobs;
-  /// Feature size: blob diameter, checker square, stripe period, brick length, image tile width [m].
+  /// Feature size: blob diameter, checker square, stripe period, brick length, image tile width
+  /// [m].
   double scale_m = 0.08;
   /// Darkest and brightest grey level of the pattern.
   double grey_low = 40.0;
@@ -106,15 +106,22 @@ struct SlipEvent {
 /// - random walk: the travelled distance error has variance sigma_per_m^2 per metre travelled,
 ///   the heading error has variance sigma_per_rad^2 per radian turned;
 /// - systematic: reported distance = (1 + scale_error) * true distance; the odometry assumes a
-///   wheel base of (1 + wheel_base_error) * true, so reported turns = true / (1 + wheel_base_error);
+///   wheel base of (1 + wheel_base_error) * true, so reported turns = true / (1 +
+///   wheel_base_error);
 /// - slip events.
 struct OdometryNoiseSpec {
-  double sigma_per_m = 0.02;        ///< [m / sqrt(m)]
-  double sigma_per_rad = 0.02;      ///< [rad / sqrt(rad)]
-  double scale_error = 0.0;         ///< [-], e.g. 0.01 = reports 1 % too far
-  double wheel_base_error = 0.0;    ///< [-], relative
+  double sigma_per_m = 0.02;      ///< [m / sqrt(m)]
+  double sigma_per_rad = 0.02;    ///< [rad / sqrt(rad)]
+  double scale_error = 0.0;       ///< [-], e.g. 0.01 = reports 1 % too far
+  double wheel_base_error = 0.0;  ///< [-], relative
   std::vector<SlipEvent> slips;
 };
+
+/// The noise model with every error multiplied by `factor` >= 0: the random-walk sigmas, the
+/// scale and wheel-base errors and each slip's offsets (slips stay at their times). 0 gives
+/// exact odometry, 1 the model as given, 3 the "three times the world's default" level of the
+/// landmark experiments.
+[[nodiscard]] OdometryNoiseSpec scaledOdometryNoise(const OdometryNoiseSpec& spec, double factor);
 
 /// The whole simulation.
 struct World {

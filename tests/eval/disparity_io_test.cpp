@@ -466,9 +466,9 @@ TEST(NonOccludedMask, NearSurfaceHidesTheBackgroundToItsLeftAndTheEdgeIsOccluded
 TEST(NonOccludedMask, TsukubaOccludesAFewPercent) {
   TWOCAM_REQUIRE_SHARED_DATA(data);
   DisparityGroundTruth gt;
-  ASSERT_TRUE(loadDisparityGroundTruth(data + "/middlebury/tsukuba/disp3.pgm", 16.0, std::nullopt,
-                                       &gt)
-                  .isOk());
+  ASSERT_TRUE(
+      loadDisparityGroundTruth(data + "/middlebury/tsukuba/disp3.pgm", 16.0, std::nullopt, &gt)
+          .isOk());
   ImageU8 mask;
   nonOccludedMask(gt, &mask);
   size_t valid = 0;

@@ -221,7 +221,7 @@ TEST(EvaluateSalient, HandBuiltHypothesesGiveHandComputedMetrics) {
   const Status s = evaluateSalient(c.hyps, c.gt, nullptr, StereoEvalOptions{}, &m);
   ASSERT_TRUE(s.isOk()) << s.message();
   EXPECT_EQ(m.points, 7);
-  EXPECT_EQ(m.evaluated, 6);                        // all but p4
+  EXPECT_EQ(m.evaluated, 6);  // all but p4
   // p0 p1 p6: best is LR-consistent and unambiguous; p5's best has consistent rivals 2.5 to
   // 4.5 px away, so it is ambiguous and gives no single-best estimate.
   EXPECT_EQ(m.estimated, 3);

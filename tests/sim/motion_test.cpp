@@ -5,6 +5,8 @@
 #include <cmath>
 #include <vector>
 
+#include "sim/world.h"
+
 namespace twocam::sim {
 namespace {
 
@@ -158,6 +160,30 @@ TEST(MotionSimulator, ZeroNoiseOdometryEqualsTruth) {
   }
   // The run must contain turns, or the check above would prove little.
   EXPECT_GT(samples.back().true_turned_rad, 2.0 * M_PI);
+}
+
+TEST(ScaledOdometryNoise, ZeroScaleGivesExactOdometryAndThreeTriplesEveryError) {
+  OdometryNoiseSpec spec;
+  spec.sigma_per_m = 0.02;
+  spec.sigma_per_rad = 0.03;
+  spec.scale_error = 0.01;
+  spec.wheel_base_error = 0.01;
+  spec.slips = {{9.0, 0.04, 0.01, 0.02}};
+  const OdometryNoiseSpec none = scaledOdometryNoise(spec, 0.0);
+  const auto samples = run(squarePath(), none, 5, 300);
+  for (size_t k = 0; k < samples.size(); ++k) {
+    expectPoseNear(samples[k].odom_pose, samples[k].true_pose, kExactTol, static_cast<int>(k));
+  }
+  const OdometryNoiseSpec triple = scaledOdometryNoise(spec, 3.0);
+  EXPECT_DOUBLE_EQ(triple.sigma_per_m, 0.06);
+  EXPECT_DOUBLE_EQ(triple.sigma_per_rad, 0.09);
+  EXPECT_DOUBLE_EQ(triple.scale_error, 0.03);
+  EXPECT_DOUBLE_EQ(triple.wheel_base_error, 0.03);
+  ASSERT_EQ(triple.slips.size(), 1u);
+  EXPECT_DOUBLE_EQ(triple.slips[0].time_s, 9.0);  // when it slips does not scale
+  EXPECT_DOUBLE_EQ(triple.slips[0].dx_m, 0.12);
+  EXPECT_DOUBLE_EQ(triple.slips[0].dy_m, 0.03);
+  EXPECT_DOUBLE_EQ(triple.slips[0].dyaw_rad, 0.06);
 }
 
 TEST(MotionSimulator, PassesNearAllWaypointsWithBoundedRates) {

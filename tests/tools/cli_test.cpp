@@ -1,14 +1,20 @@
 // End-to-end tests of the twocam program: runs the built binary like a user would.
 
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cctype>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
+#include <optional>
+#include <random>
 #include <sstream>
 #include <string>
-
-#include <unistd.h>
-
-#include <gtest/gtest.h>
+#include <vector>
 
 #include "io/rawlog.h"
 #include "support/test_paths.h"
@@ -20,31 +26,35 @@ namespace fs = std::filesystem;
 
 struct RunResult {
   int exit_code = -1;
-  std::string output;  // stdout and stderr
+  std::string output;  // stdout followed by stderr
+  std::string error;   // stderr alone
 };
-
-RunResult run(const std::string& args) {
-  // One output file per test and process: CTest runs the tests of this binary in parallel.
-  const std::string out_file = (fs::temp_directory_path() /
-                                ("twocam_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
-                                 std::to_string(getpid()) + ".txt"))
-                                   .string();
-  const std::string cmd = std::string(TWOCAM_BINARY) + " " + args + " > " + out_file + " 2>&1";
-  const int rc = std::system(cmd.c_str());
-  RunResult r;
-  r.exit_code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  std::ifstream f(out_file);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  r.output = ss.str();
-  return r;
-}
 
 std::string readFile(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   std::stringstream ss;
   ss << f.rdbuf();
   return ss.str();
+}
+
+RunResult run(const std::string& args) {
+  // One pair of output files per test and process: CTest runs the tests of this binary in parallel.
+  const std::string stem =
+      (fs::temp_directory_path() /
+       ("twocam_cli_" +
+        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
+        std::to_string(getpid())))
+          .string();
+  const std::string out_file = stem + ".txt";
+  const std::string err_file = stem + ".err.txt";
+  const std::string cmd =
+      std::string(TWOCAM_BINARY) + " " + args + " > " + out_file + " 2> " + err_file;
+  const int rc = std::system(cmd.c_str());
+  RunResult r;
+  r.exit_code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  r.error = readFile(err_file);
+  r.output = readFile(out_file) + r.error;
+  return r;
 }
 
 std::string smallWorld() { return test::sourceDir() + "/tests/data/small_world.yaml"; }
@@ -82,7 +92,8 @@ TEST(TwocamCli, SimulatesEveryShippedWorld) {
   const std::string dir = test::makeTempDir("cli_worlds");
   for (const char* name : {"office", "garden", "repetitive", "lowtexture"}) {
     const std::string log = dir + "/" + name + ".rawlog";
-    const RunResult r = run("simulate " + test::sourceDir() + "/worlds/" + name + ".yaml -o " + log + " --frames 20 -q");
+    const RunResult r = run("simulate " + test::sourceDir() + "/worlds/" + name + ".yaml -o " +
+                            log + " --frames 20 -q");
     ASSERT_EQ(r.exit_code, 0) << name << ": " << r.output;
     const LogCounts c = countLog(log);
     EXPECT_TRUE(c.status.isOk()) << name << ": " << c.status.message();
@@ -95,11 +106,19 @@ TEST(TwocamCli, SimulatesEveryShippedWorld) {
 
 TEST(TwocamCli, SameSeedSameLogDifferentSeedDifferentLog) {
   const std::string dir = test::makeTempDir("cli_determinism");
-  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/a.rawlog --frames 4 --seed 11 -q").exit_code, 0);
-  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/b.rawlog --frames 4 --seed 11 -q").exit_code, 0);
-  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/c.rawlog --frames 4 --seed 12 -q").exit_code, 0);
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/a.rawlog --frames 4 --seed 11 -q")
+                .exit_code,
+            0);
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/b.rawlog --frames 4 --seed 11 -q")
+                .exit_code,
+            0);
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/c.rawlog --frames 4 --seed 12 -q")
+                .exit_code,
+            0);
   // Byte comparisons without printing binary contents on failure.
-  auto same = [&](const std::string& x, const std::string& y) { return readFile(dir + x) == readFile(dir + y); };
+  auto same = [&](const std::string& x, const std::string& y) {
+    return readFile(dir + x) == readFile(dir + y);
+  };
   EXPECT_TRUE(same("/a.rawlog", "/b.rawlog"));
   EXPECT_TRUE(same("/a_Images/left_000003.png", "/b_Images/left_000003.png"));
   EXPECT_TRUE(same("/a_Images/right_000003.png", "/b_Images/right_000003.png"));
@@ -110,7 +129,10 @@ TEST(TwocamCli, SameSeedSameLogDifferentSeedDifferentLog) {
 }
 
 /// Writes a copy of the small world with one line replaced (or appended) and returns its path.
-std::string worldVariant(const std::string& dir, const std::string& name, const std::string& from, const std::string& to) {
+std::string worldVariant(const std::string& dir,
+                         const std::string& name,
+                         const std::string& from,
+                         const std::string& to) {
   std::string text = readFile(smallWorld());
   if (from.empty()) {
     text += to + "\n";
@@ -124,32 +146,326 @@ std::string worldVariant(const std::string& dir, const std::string& name, const 
   return path;
 }
 
-void expectRejected(const std::string& world, const std::string& dir, const std::string& message_part) {
+void expectRejected(const std::string& world,
+                    const std::string& dir,
+                    const std::string& message_part) {
   const std::string log = dir + "/out.rawlog";
   const RunResult r = run("simulate " + world + " -o " + log + " -q");
   EXPECT_NE(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find(message_part), std::string::npos) << "message should mention '" << message_part << "': " << r.output;
+  EXPECT_NE(r.output.find(message_part), std::string::npos)
+      << "message should mention '" << message_part << "': " << r.output;
   EXPECT_FALSE(fs::exists(log)) << "no log may be left behind";
   EXPECT_FALSE(fs::exists(log + ".partial"));
 }
 
 TEST(TwocamCli, BadInputGivesClearErrorAndNoLog) {
   const std::string dir = test::makeTempDir("cli_bad");
-  expectRejected(worldVariant(dir, "malformed", "shapes:", "shapes: [ {type: plane"), dir, "malformed.yaml");
+  expectRejected(
+      worldVariant(dir, "malformed", "shapes:", "shapes: [ {type: plane"), dir, "malformed.yaml");
   expectRejected(worldVariant(dir, "unknown", "", "colour: red"), dir, "colour");
-  expectRejected(worldVariant(dir, "baseline", "baseline_m: 0.12", "baseline_m: -0.12"), dir, "baseline_m");
-  expectRejected(worldVariant(dir, "texture", "{kind: blobs, scale_m: 0.05}", "{kind: image, file: no_such_texture.png, scale_m: 0.5}"), dir,
+  expectRejected(
+      worldVariant(dir, "baseline", "baseline_m: 0.12", "baseline_m: -0.12"), dir, "baseline_m");
+  expectRejected(worldVariant(dir,
+                              "texture",
+                              "{kind: blobs, scale_m: 0.05}",
+                              "{kind: image, file: no_such_texture.png, scale_m: 0.5}"),
+                 dir,
                  "no_such_texture.png");
   expectRejected(dir + "/does_not_exist.yaml", dir, "does_not_exist.yaml");
-  const RunResult unwritable = run("simulate " + smallWorld() + " -o /nonexistent_twocam_dir/x.rawlog -q");
+  const RunResult unwritable =
+      run("simulate " + smallWorld() + " -o /nonexistent_twocam_dir/x.rawlog -q");
   EXPECT_NE(unwritable.exit_code, 0);
-  EXPECT_NE(unwritable.output.find("/nonexistent_twocam_dir"), std::string::npos) << unwritable.output;
+  EXPECT_NE(unwritable.output.find("/nonexistent_twocam_dir"), std::string::npos)
+      << unwritable.output;
   const RunResult zero = run("simulate " + smallWorld() + " -o " + dir + "/z.rawlog --frames 0 -q");
   EXPECT_NE(zero.exit_code, 0);
   EXPECT_NE(zero.output.find("--frames"), std::string::npos) << zero.output;
   EXPECT_FALSE(fs::exists(dir + "/z.rawlog"));
+  const RunResult negative_noise = run("simulate " + smallWorld() + " -o " + dir +
+                                       "/n.rawlog --odometry-noise-scale -1 -q");
+  EXPECT_NE(negative_noise.exit_code, 0);
+  EXPECT_NE(negative_noise.output.find("--odometry-noise-scale"), std::string::npos)
+      << negative_noise.output;
+  EXPECT_FALSE(fs::exists(dir + "/n.rawlog"));
   const RunResult missing_arg = run("simulate " + smallWorld());
   EXPECT_NE(missing_arg.exit_code, 0);
+}
+
+// ---- stereo-eval ----------------------------------------------------------------------------
+
+/// Writes an 8-bit binary PGM (P5). OpenCV's image reader, which the tool uses, reads PGM as
+/// well as PNG; this test binary does not link OpenCV itself.
+void writePgm(const std::string& path, int width, int height, const std::vector<uint8_t>& pixels) {
+  std::ofstream f(path, std::ios::binary);
+  f << "P5\n" << width << " " << height << "\n255\n";
+  f.write(reinterpret_cast<const char*>(pixels.data()),
+          static_cast<std::streamsize>(pixels.size()));
+}
+
+constexpr int kPairWidth = 160;
+constexpr int kPairHeight = 120;
+constexpr int kPairDisparityPx = 5;
+constexpr int kPairGtScale = 4;
+
+/// Files of a synthetic rectified pair: seeded random texture in 2x2 blocks, right = left
+/// shifted by a constant disparity, so left pixel u matches right pixel u - d.
+struct SyntheticPair {
+  std::string left, right, gt;
+};
+
+SyntheticPair writeSyntheticPair(const std::string& dir,
+                                 int width = kPairWidth,
+                                 int height = kPairHeight) {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> grey(0, 255);
+  const int tex_width = width + kPairDisparityPx;
+  std::vector<uint8_t> texture(static_cast<size_t>(tex_width) * height);
+  for (int v = 0; v < height; v += 2) {
+    for (int u = 0; u < tex_width; u += 2) {
+      const auto g = static_cast<uint8_t>(grey(rng));
+      for (int dv = 0; dv < 2 && v + dv < height; ++dv) {
+        for (int du = 0; du < 2 && u + du < tex_width; ++du)
+          texture[(v + dv) * tex_width + u + du] = g;
+      }
+    }
+  }
+  std::vector<uint8_t> left(static_cast<size_t>(width) * height), right(left.size()),
+      gt(left.size());
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      left[v * width + u] = texture[v * tex_width + u];
+      right[v * width + u] = texture[v * tex_width + u + kPairDisparityPx];
+      // The leftmost columns have no match in the right image: 0 = no ground truth.
+      gt[v * width + u] = u < kPairDisparityPx ? 0 : kPairDisparityPx * kPairGtScale;
+    }
+  }
+  SyntheticPair p{dir + "/left.pgm", dir + "/right.pgm", dir + "/gt.pgm"};
+  writePgm(p.left, width, height, left);
+  writePgm(p.right, width, height, right);
+  writePgm(p.gt, width, height, gt);
+  return p;
+}
+
+/// Parses a flat JSON object of numbers (null = NaN), as stereo-eval writes; nullopt when the
+/// text is not such an object.
+std::optional<std::map<std::string, double>> parseFlatJson(const std::string& text) {
+  std::map<std::string, double> values;
+  size_t i = 0;
+  auto skipSpace = [&] {
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+  };
+  auto expect = [&](char c) {
+    skipSpace();
+    if (i >= text.size() || text[i] != c) return false;
+    ++i;
+    return true;
+  };
+  if (!expect('{')) return std::nullopt;
+  skipSpace();
+  if (i < text.size() && text[i] == '}') {
+    ++i;
+  } else {
+    while (true) {
+      if (!expect('"')) return std::nullopt;
+      const size_t end = text.find('"', i);
+      if (end == std::string::npos) return std::nullopt;
+      const std::string key = text.substr(i, end - i);
+      i = end + 1;
+      if (!expect(':')) return std::nullopt;
+      skipSpace();
+      double value = 0.0;
+      if (text.compare(i, 4, "null") == 0) {
+        value = std::numeric_limits<double>::quiet_NaN();
+        i += 4;
+      } else {
+        const char* begin = text.c_str() + i;
+        char* stop = nullptr;
+        value = std::strtod(begin, &stop);
+        if (stop == begin) return std::nullopt;
+        i += static_cast<size_t>(stop - begin);
+      }
+      if (!values.emplace(key, value).second) return std::nullopt;  // duplicate key
+      if (expect(',')) continue;
+      if (expect('}')) break;
+      return std::nullopt;
+    }
+  }
+  skipSpace();
+  if (i != text.size()) return std::nullopt;
+  return values;
+}
+
+/// Reads the width and height of a PNG after checking its signature, header chunk and end
+/// chunk; false when the file is not a well-formed PNG.
+bool pngSize(const std::string& path, int* width, int* height) {
+  const std::string b = readFile(path);
+  static const std::string kSignature = "\x89PNG\r\n\x1a\n";
+  static const std::string kEnd = std::string("IEND\xae\x42\x60\x82", 8);
+  if (b.size() < 8 + 25 + 12 || b.compare(0, 8, kSignature) != 0) return false;
+  if (b.compare(12, 4, "IHDR") != 0 || b.compare(b.size() - 8, 8, kEnd) != 0) return false;
+  if (b.find("IDAT") == std::string::npos) return false;
+  auto be32 = [&](size_t at) {
+    uint32_t x = 0;
+    for (size_t k = 0; k < 4; ++k) x = (x << 8) | static_cast<unsigned char>(b[at + k]);
+    return static_cast<int>(x);
+  };
+  *width = be32(16);
+  *height = be32(20);
+  return *width > 0 && *height > 0;
+}
+
+std::string stereoEvalArgs(const SyntheticPair& p, const std::string& extra) {
+  return "stereo-eval --left " + p.left + " --right " + p.right + " --gt " + p.gt + " --gt-scale " +
+         std::to_string(kPairGtScale) + " " + extra;
+}
+
+TEST(TwocamCli, StereoEvalSyntheticPairBothModes) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_good");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string mode : {"dense", "salient"}) {
+    SCOPED_TRACE(mode);
+    const std::string json_path = dir + "/" + mode + ".json";
+    const std::string image_path = dir + "/" + mode + ".png";
+    const RunResult r = run(stereoEvalArgs(
+        pair, "--max-disp 16 --mode " + mode + " -o " + json_path + " --image " + image_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(r.error, "");
+    ASSERT_TRUE(fs::is_regular_file(json_path));
+    const auto json = parseFlatJson(readFile(json_path));
+    ASSERT_TRUE(json.has_value()) << readFile(json_path);
+    for (const char* key :
+         {"bad1", "bad2", "avgerr", "density", "recall_at_k", "points", "ms", "s_per_mp"}) {
+      EXPECT_EQ(json->count(key), 1u) << "missing key " << key;
+    }
+    const auto value = [&](const char* key) {
+      const auto it = json->find(key);
+      return it == json->end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
+    };
+    EXPECT_GT(value("points"), 0.0);
+    EXPECT_GT(value("ms"), 0.0);
+    EXPECT_GT(value("s_per_mp"), 0.0);
+    EXPECT_GE(value("bad2"), 0.0);
+    EXPECT_LE(value("bad2"), value("bad1"));
+    if (mode == "dense") {
+      EXPECT_EQ(value("points"), kPairWidth * kPairHeight);
+      EXPECT_LE(value("bad1"), 2.0);
+      EXPECT_GT(value("density"), 50.0);
+      EXPECT_LE(value("avgerr"), 0.5);
+    } else {
+      EXPECT_GE(value("recall_at_k"), 95.0);
+      EXPECT_LE(value("bad1"), 5.0);
+    }
+    int width = 0, height = 0;
+    EXPECT_TRUE(pngSize(image_path, &width, &height)) << image_path << " is not a well-formed PNG";
+    EXPECT_GE(width, kPairWidth);
+    EXPECT_GE(height, kPairHeight);
+  }
+}
+
+/// Runs stereo-eval with a JSON output and expects a non-zero exit, an error on stderr that
+/// mentions every part of `cause` (the offending file or flag, and what is wrong with it), and
+/// no JSON file.
+void expectStereoEvalRejected(const std::string& args,
+                              const std::string& json_path,
+                              const std::vector<std::string>& cause) {
+  SCOPED_TRACE(args);
+  const RunResult r = run(args + " -o " + json_path);
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  for (const std::string& part : cause) {
+    EXPECT_NE(r.error.find(part), std::string::npos)
+        << "stderr should mention '" << part << "': " << r.error;
+  }
+  EXPECT_FALSE(fs::exists(json_path)) << "no JSON may be written";
+}
+
+TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_bad");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  constexpr int kNarrowWidth = kPairWidth - 10;
+  fs::create_directories(dir + "/narrow");
+  const SyntheticPair narrow = writeSyntheticPair(dir + "/narrow", kNarrowWidth, kPairHeight);
+  const std::string narrow_size = std::to_string(kNarrowWidth) + "x" + std::to_string(kPairHeight);
+  const std::string json = dir + "/out.json";
+  const std::string ok_flags = "--max-disp 16 --mode dense";
+  const std::string garbage_file = dir + "/garbage.pgm";
+  {
+    std::mt19937 rng(3);
+    std::string garbage(4096, '\0');
+    for (char& c : garbage) c = static_cast<char>(rng() & 0xff);
+    std::ofstream(garbage_file, std::ios::binary) << garbage;
+  }
+
+  SyntheticPair mixed = pair;
+  mixed.right = narrow.right;
+  expectStereoEvalRejected(stereoEvalArgs(mixed, ok_flags), json, {narrow_size, "differ in size"});
+
+  SyntheticPair gt_size = pair;
+  gt_size.gt = narrow.gt;
+  expectStereoEvalRejected(stereoEvalArgs(gt_size, ok_flags), json, {narrow.gt, narrow_size});
+
+  SyntheticPair missing = pair;
+  missing.left = dir + "/no_such_left.png";
+  expectStereoEvalRejected(stereoEvalArgs(missing, ok_flags), json, {missing.left, "no such file"});
+
+  SyntheticPair unreadable = pair;
+  unreadable.right = garbage_file;
+  expectStereoEvalRejected(stereoEvalArgs(unreadable, ok_flags), json, {garbage_file, "readable"});
+
+  SyntheticPair corrupt = pair;
+  corrupt.gt = garbage_file;
+  expectStereoEvalRejected(stereoEvalArgs(corrupt, ok_flags), json, {garbage_file, "readable"});
+
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 0 --mode dense"), json, {"--max-disp"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 200 --mode dense"), json, {"--max-disp", "width"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode other"), json, {"--mode", "other"});
+
+  const std::string mask = dir + "/narrow_mask.pgm";
+  writePgm(mask,
+           kNarrowWidth,
+           kPairHeight,
+           std::vector<uint8_t>(static_cast<size_t>(kNarrowWidth) * kPairHeight, 255));
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, ok_flags + " --mask " + mask), json, {mask, "size"});
+
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags),
+                           "/nonexistent_twocam_dir/out.json",
+                           {"/nonexistent_twocam_dir", "does not exist"});
+}
+
+/// Middlebury Tsukuba (scale 16, 0 = no ground truth); the issue's accuracy targets.
+struct TsukubaResult {
+  RunResult run;
+  std::optional<std::map<std::string, double>> json;
+};
+TsukubaResult runTsukuba(const std::string& data_dir,
+                         const std::string& out_dir,
+                         const std::string& extra) {
+  const std::string set = data_dir + "/middlebury/tsukuba";
+  const std::string json_path = out_dir + "/metrics.json";
+  fs::remove(json_path);
+  TsukubaResult t;
+  t.run = run("stereo-eval --left " + set + "/im3.png --right " + set + "/im4.png --gt " + set +
+              "/disp3.pgm --gt-scale 16 --max-disp 16 -o " + json_path + " " + extra);
+  if (t.run.exit_code == 0) t.json = parseFlatJson(readFile(json_path));
+  return t;
+}
+
+TEST(TwocamCli, StereoEvalTsukubaMeetsTargets) {
+  TWOCAM_REQUIRE_SHARED_DATA(data_dir);
+  const std::string dir = test::makeTempDir("cli_stereo_eval_tsukuba");
+
+  const TsukubaResult salient = runTsukuba(data_dir, dir, "--mode salient --exclude-occluded");
+  ASSERT_EQ(salient.run.exit_code, 0) << salient.run.output;
+  ASSERT_TRUE(salient.json.has_value());
+  EXPECT_GE(salient.json->at("recall_at_k"), 95.0);
+  EXPECT_LE(salient.json->at("bad1"), 5.0);
+
+  const TsukubaResult dense = runTsukuba(data_dir, dir, "--mode dense");
+  ASSERT_EQ(dense.run.exit_code, 0) << dense.run.output;
+  ASSERT_TRUE(dense.json.has_value());
+  EXPECT_LE(dense.json->at("bad1"), 10.0);
 }
 
 }  // namespace
