@@ -782,6 +782,12 @@ Status matchSalient(const ImageU8& left,
                   &scratch,
                   curve.cost);
         setGuards(curve.cost, curve.n);
+        // Cut short by the image border, the curve's end at d_hi is not a minimum of the
+        // matching cost, only of what could be searched: the true disparity may lie beyond
+        // (a corner nearer the left edge than its disparity). A zero guard keeps t = 0 from
+        // ever passing the local-minimum test. Measured on the office world: such end points
+        // were a quarter of the wrongly confirmed landmarks (d = u exactly, 1-2 px short).
+        if (d_hi < d_max) curve.cost[-1] = 0;
         best = std::min(best, minCost(curve.cost, curve.n));
         ++num_curves;
       }

@@ -485,6 +485,7 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
     RefineOptions ro;
     ro.disparity_sigma_px = options_.disparity_sigma_px;
     ro.huber = options_.refine_huber;
+    ro.noise_model = options_;
     if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
   }
 }

@@ -1,8 +1,9 @@
 #include "landmarks/refine.h"
 
-#include <cmath>
-
 #include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include "landmarks/landmark_model.h"
 
@@ -23,7 +24,30 @@ struct AnchoredResidual {
         xa((anchor.u_px - rig.cx_px) / rig.fx_px),
         ya((anchor.v_px - rig.cy_px) / rig.fy_px),
         d(obs.d_px),
-        inv_d(1.0 / o.disparity_sigma_px) {}
+        inv_d(1.0 / observationSigma(rig, anchor, obs, o)) {}
+
+  /// The residual's sigma [px] (RefineOptions::weight_by_odometry).
+  static double observationSigma(const StereoRig& rig,
+                                 const Observation& anchor,
+                                 const Observation& obs,
+                                 const RefineOptions& o) {
+    if (!o.weight_by_odometry) return o.disparity_sigma_px;
+    const double dist_m = std::hypot(obs.odom_pose.x_m - anchor.odom_pose.x_m,
+                                     obs.odom_pose.y_m - anchor.odom_pose.y_m);
+    const double turn_rad =
+        std::remainder(obs.odom_pose.yaw_rad - anchor.odom_pose.yaw_rad, 2.0 * M_PI);
+    const double z_m = rig.fx_px * rig.baseline_m / std::max(1e-3, static_cast<double>(obs.d_px));
+    const Eigen::Vector3d uvd(obs.u_px, obs.v_px, obs.d_px);
+    const MeasurementSigma sigma = predictionSigma(o.noise_model, rig, uvd, z_m, dist_m, turn_rad);
+    const LandmarkOptions& n = o.noise_model;
+    const double sigma_yaw = n.odom_rot_sigma_per_sqrt_rad * std::sqrt(std::abs(turn_rad)) +
+                             n.odom_rot_scale_sigma * std::abs(turn_rad) +
+                             n.odom_rot_sigma_per_m * dist_m;
+    const double dd_yaw = obs.d_px * std::abs(obs.u_px - rig.cx_px) / rig.fx_px * sigma_yaw;
+    const double odo2 = sigma.d_px * sigma.d_px - n.disparity_sigma_px * n.disparity_sigma_px;
+    return std::sqrt(o.disparity_sigma_px * o.disparity_sigma_px + std::max(0.0, odo2) +
+                     dd_yaw * dd_yaw);
+  }
 
   template <typename T>
   bool operator()(const T* const d_anchor, T* residual) const {
@@ -31,7 +55,8 @@ struct AnchoredResidual {
     const T z_a = T(fb) / d_anchor[0];
     const T pa[3] = {T(xa) * z_a, T(ya) * z_a, z_a};
     T p[3];
-    for (int r = 0; r < 3; ++r) p[r] = T(R(r, 0)) * pa[0] + T(R(r, 1)) * pa[1] + T(R(r, 2)) * pa[2] + T(t(r));
+    for (int r = 0; r < 3; ++r)
+      p[r] = T(R(r, 0)) * pa[0] + T(R(r, 1)) * pa[1] + T(R(r, 2)) * pa[2] + T(t(r));
     if (!(p[2] > T(1e-6))) return false;
     residual[0] = (T(fb) / p[2] - T(d)) * T(inv_d);
     return true;
@@ -76,6 +101,10 @@ RefineResult refineLandmark(const StereoRig& rig,
   ceres::Solve(solver_options, &problem, &summary);
   if (summary.termination_type == ceres::FAILURE || !std::isfinite(d_anchor) || !(d_anchor > 0.0)) {
     return RefineResult::kNoConvergence;
+  }
+  if (std::abs(d_anchor - anchor.d_px) >
+      options.max_anchor_shift_sigmas * options.disparity_sigma_px) {
+    return RefineResult::kDisagreesWithAnchor;
   }
   const auto p = triangulateRectified(rig, Eigen::Vector2d(anchor.u_px, anchor.v_px), d_anchor);
   if (!p) return RefineResult::kNoConvergence;

@@ -8,10 +8,9 @@
 /// 1-2 px of disparity (precision 91.5 % with rows, 98.6 % without). Keeping the ray fixed
 /// means odometry drift can move the point along its anchor ray only.
 
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <vector>
 
 #include "common/rig.h"
 #include "landmarks/landmark_database.h"
@@ -25,9 +24,32 @@ struct RefineOptions {
   double huber = 1.0;
   /// Gauss-Newton iterations (a 3-parameter problem converges in a handful) [-].
   int max_iterations = 10;
+  /// Weigh each observation by its odometry uncertainty relative to the anchor frame: its
+  /// sigma becomes sqrt(disparity_sigma^2 + sigma_odo^2), sigma_odo the disparity error that
+  /// the odometry noise model (noise_model's odom_* fields, predictionSigma()) expects after
+  /// the straight-line distance and the heading change between the two odometry poses, plus
+  /// the heading error's effect on depth (d |u - cx| / fx sigma_yaw). Without it, observations
+  /// from metres away count as much as the anchor's neighbours, and odometry drift pulled
+  /// refined disparities 1-2 px off on the office world (docs/landmarks.md).
+  bool weight_by_odometry = true;
+  /// Largest move of the anchor disparity the refinement may make, in disparity sigmas [-]:
+  /// a refined value farther from the anchor's own measurement than this is rejected
+  /// (kDisagreesWithAnchor, p_w unchanged). The anchor pixel is where the landmark is judged;
+  /// observations that disagree with it by more than 2 sigma (1 px) are more likely to carry
+  /// odometry drift or a neighbouring corner than to correct it (office world: 24 of 38
+  /// wrong confirmed landmarks had a good anchor and a refinement pulled 1-2 px off).
+  double max_anchor_shift_sigmas = 2.0;
+  /// Noise model for weight_by_odometry (only its odom_* and disparity fields are used).
+  LandmarkOptions noise_model;
 };
 
-enum class RefineResult { kOk, kTooFewObservations, kNoConvergence, kBehindCamera };
+enum class RefineResult {
+  kOk,
+  kTooFewObservations,
+  kNoConvergence,
+  kBehindCamera,
+  kDisagreesWithAnchor
+};
 
 /// Refines p_w in place from the observations (at least 2). On anything but kOk, p_w is left
 /// unchanged. rms_sigma (optional) receives the RMS normalised residual after refinement.

@@ -201,6 +201,31 @@ TEST(SalientSad, IntegerShiftFindsTrueDisparityConsistently) {
   }
 }
 
+TEST(SalientSad, BorderTruncatedSearchEndIsNotAHypothesis) {
+  // Corners closer to the left edge than their true disparity: the match lies outside the
+  // right image, the search stops at d = u (window starting at u, right window at column 0),
+  // and that end of the cost curve must not be reported as a minimum of the cost.
+  constexpr int kD = 30;
+  const cv::Mat tex = randomTexture(400, 140, 5);
+  const StereoPair pair = shiftedPair(tex, 320, 120, kD);
+  const std::vector<Corner> corners = gridCorners(8, 24, 5, 115, 3);
+  StereoHypotheses out;
+  ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, SalientSadOptions{}, &out).isOk());
+  expectWellFormed(out, 4);
+  int hypotheses = 0;
+  for (const SalientPoint& p : out.points) {
+    for (uint32_t k = 0; k < p.num_hypotheses; ++k) {
+      const DisparityHypothesis& h = out.hypotheses[p.first_hypothesis + k];
+      ++hypotheses;
+      // The largest searchable disparity is u; an interior minimum at u - 1 may move by up
+      // to half a pixel with the parabola fit.
+      EXPECT_LE(h.d_px, static_cast<float>(p.corner.u_px) - 0.5f + 1e-3f)
+          << "corner " << p.corner.u_px << "," << p.corner.v_px;
+    }
+  }
+  std::printf("[          ] %d hypotheses at %zu border corners\n", hypotheses, out.points.size());
+}
+
 /// f(x, y): a band-limited random texture (48 seeded plane waves, periods 6..40 px, grey
 /// standard deviation ~35) sampled exactly at any x, so a sub-pixel shift needs no
 /// interpolation.

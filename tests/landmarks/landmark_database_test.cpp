@@ -287,6 +287,20 @@ TEST(Refine, RecoversPointFromNoisyViewsDespiteAnOutlier) {
   EXPECT_LT((p - p_true).norm(), kRefineTolM) << p.transpose();
   std::vector<Observation> one(obs.begin(), obs.begin() + 1);
   EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, one, RefineOptions(), &p), RefineResult::kTooFewObservations);
+
+  // Every later view 2 px nearer than the anchor says (odometry drift, or a neighbouring
+  // corner): the refinement would move the anchor disparity by ~2 px > 2 sigma and is refused.
+  std::vector<Observation> drifted = obs;
+  drifted[5].d_px -= 8.0f;
+  for (size_t k = 1; k < drifted.size(); ++k) drifted[k].d_px += 2.0f;
+  Eigen::Vector3d q = p_true;
+  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, drifted, RefineOptions(), &q),
+            RefineResult::kDisagreesWithAnchor);
+  EXPECT_EQ(q, p_true);  // unchanged
+  RefineOptions permissive;
+  permissive.max_anchor_shift_sigmas = 100.0;
+  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, drifted, permissive, &q), RefineResult::kOk);
+  EXPECT_GT((q - p_true).norm(), kRefineTolM);
 }
 
 TEST(LandmarkOptions, ValidateNamesTheKey) {
