@@ -182,7 +182,9 @@ int runRun(const RunArgs& args) {
     const size_t close = nested.rfind('}');
     json << ",\n" << nested.substr(open + 2, close - open - 2);
     std::cout << "landmarks: " << m.confirmed << " confirmed, " << m.correct_confirmed << " correct, precision "
-              << std::setprecision(4) << m.precision << " %, median error " << m.median_error_m << " m" << std::endl;
+              << std::setprecision(4) << m.precision << " % (" << m.precision_judged << " % of the "
+              << m.confirmed - m.unjudged_confirmed << " with ground truth at the anchor), median error "
+              << m.median_error_m << " m" << std::endl;
   } else {
     json << ",\n  \"landmarks\": {\"confirmed\": " << db.numConfirmed() << ", \"candidates\": " << db.numCandidates()
          << "}\n";

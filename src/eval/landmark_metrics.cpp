@@ -128,7 +128,8 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
     m.correct_confirmed += v;
     errors.push_back(errorM(l));
   }
-  m.precision = percent(m.correct_confirmed, m.confirmed - m.unjudged_confirmed);
+  m.precision = percent(m.correct_confirmed, m.confirmed);
+  m.precision_judged = percent(m.correct_confirmed, m.confirmed - m.unjudged_confirmed);
   m.median_error_m = quantile(errors, 0.5);
   m.p90_error_m = quantile(errors, 0.9);
   m.frames_to_confirm_median = quantile(frames_to_confirm, 0.5);
@@ -151,6 +152,7 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
     << ", \"points\": " << f.points << ", \"evaluated\": " << f.evaluated << "},\n";
   s << i1 << "\"landmarks\": {\n";
   s << i2 << "\"precision\": " << num(m.precision) << ",\n";
+  s << i2 << "\"precision_judged\": " << num(m.precision_judged) << ",\n";
   s << i2 << "\"correct_confirmed\": " << m.correct_confirmed << ",\n";
   s << i2 << "\"confirmed\": " << m.confirmed << ",\n";
   s << i2 << "\"unjudged_confirmed\": " << m.unjudged_confirmed << ",\n";

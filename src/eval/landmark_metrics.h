@@ -40,7 +40,13 @@ struct LandmarkMetrics {
   int64_t confirmed = 0;
   int64_t correct_confirmed = 0;
   int64_t unjudged_confirmed = 0;  ///< anchor pixel without defined ground truth (depth edge)
-  double precision = 0.0;          ///< percent of judged confirmed landmarks that are correct
+  /// Percent of confirmed landmarks that are correct (METRICS.md: correct confirmed /
+  /// confirmed). A landmark whose anchor pixel has no defined ground truth (a depth edge) is
+  /// not correct: nobody can say where it should be.
+  double precision = 0.0;
+  /// The same over judged landmarks only (anchor with defined ground truth), to separate
+  /// wrong depths from corners on depth edges.
+  double precision_judged = 0.0;
   double median_error_m = 0.0;
   double p90_error_m = 0.0;
   double frames_to_confirm_median = 0.0;
