@@ -32,6 +32,10 @@ struct DisparityHypothesis {
   /// True when matching the right window back along the left row lands on this
   /// hypothesis again (within the matcher's tolerance).
   bool lr_consistent = false;
+  /// Column shift of the matching window relative to the corner [px]: 0 for the centred
+  /// window, -h / +h when a window ending / starting at the corner matched (shiftable windows,
+  /// the sign of a depth edge through the corner).
+  int8_t window_shift_px = 0;
 };
 
 /// A salient point and the range of its hypotheses in StereoHypotheses::hypotheses.

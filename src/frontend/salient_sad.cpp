@@ -838,6 +838,7 @@ Status matchSalient(const ImageU8& left,
       hyp.cost = static_cast<float>(cand.cost);
       hyp.point_index = point_index;
       hyp.row_offset_px = static_cast<int8_t>(curve.row_offset_px);
+      hyp.window_shift_px = static_cast<int8_t>(curve.align_px);
       hyp.rank = static_cast<uint8_t>(k);
       if (options.lr_check) {
         // The right window (same alignment) at u - d on row v + r, searched along left row v:

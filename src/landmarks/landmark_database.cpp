@@ -500,6 +500,10 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       if (report->hypothesis_landmark[point.first_hypothesis + k] >= 0) explained = true;
     }
     if (explained) continue;  // tracked by an existing landmark: not seeded again
+    if (!options_.seed_depth_edges &&
+        hyps.hypotheses[point.first_hypothesis].window_shift_px != 0) {
+      continue;  // best match from a shifted window: the corner is on a depth edge
+    }
     uint32_t chosen[RivalGroup::kMaxMembers];
     int n = 0;
     for (uint32_t k = 0; k < point.num_hypotheses && n < RivalGroup::kMaxMembers; ++k) {

@@ -150,6 +150,12 @@ struct LandmarkOptions {
   /// landmarks are not re-refined later: their associations are tracked without the anchor check,
   /// and re-refining over them cost 7 points of precision on the office world (docs/landmarks.md).
   bool refine = true;
+  /// Seed candidates from hypotheses whose matching window was shifted off the corner
+  /// (DisparityHypothesis::window_shift_px != 0): the frontend matched only one side of the
+  /// corner, i.e. the corner lies on a depth edge, where its 3-D point is ill-defined (it
+  /// slides along the occluding contour as the robot moves) and METRICS.md leaves it without
+  /// ground truth.
+  bool seed_depth_edges = false;
   /// Huber loss scale of the refinement residuals, in units of their sigma [-].
   double refine_huber = 1.0;
 

@@ -175,6 +175,45 @@ TEST(LandmarkDatabase, EmptyFramesAndStandingStillAreHandled) {
   EXPECT_GT(report.predicted_visible, 0);
 }
 
+TEST(LandmarkDatabase, CornersOnDepthEdgesAreNotSeededUnlessAsked) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  SyntheticStream stream(rig, SyntheticStreamOptions());
+  SyntheticFrame frame;
+  stream.next(&frame);
+  ASSERT_GT(frame.hypotheses.points.size(), 10u);
+  // Mark every other point's best hypothesis as matched by a window shifted off the corner.
+  StereoHypotheses edged = frame.hypotheses;
+  size_t marked = 0;
+  for (size_t i = 0; i < edged.points.size(); i += 2) {
+    const SalientPoint& p = edged.points[i];
+    if (p.num_hypotheses == 0) continue;
+    edged.hypotheses[p.first_hypothesis].window_shift_px = 5;
+    ++marked;
+  }
+  ASSERT_GT(marked, 0u);
+  FrameReport plain_report;
+  LandmarkDatabase plain(rig, LandmarkOptions());
+  ASSERT_TRUE(plain.update(0, frame.t_ns, frame.odom_pose, frame.hypotheses, &plain_report).isOk());
+  FrameReport edged_report;
+  LandmarkDatabase edged_db(rig, LandmarkOptions());
+  ASSERT_TRUE(edged_db.update(0, frame.t_ns, frame.odom_pose, edged, &edged_report).isOk());
+  LandmarkOptions keep;
+  keep.seed_depth_edges = true;
+  FrameReport keep_report;
+  LandmarkDatabase keep_db(rig, keep);
+  ASSERT_TRUE(keep_db.update(0, frame.t_ns, frame.odom_pose, edged, &keep_report).isOk());
+  EXPECT_LT(edged_db.numCandidates(), plain.numCandidates());
+  EXPECT_EQ(keep_db.numCandidates(), plain.numCandidates());
+  // No candidate of the edged database is anchored on a marked point.
+  for (const Landmark& l : edged_db.landmarks()) {
+    if (l.state == LandmarkState::kFree) continue;
+    for (size_t i = 0; i < edged.points.size(); i += 2) {
+      const Corner& c = edged.points[i].corner;
+      EXPECT_FALSE(l.anchor.u_px == c.u_px && l.anchor.v_px == c.v_px) << "point " << i;
+    }
+  }
+}
+
 TEST(LandmarkDatabase, RevisitedLandmarksAreReassociatedNotDuplicated) {
   // 2000 frames = 4 laps of the circle with exact odometry: confirmed landmarks that leave the
   // view must be re-associated when they come back, so the map cannot outgrow the world.
