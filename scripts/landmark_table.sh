@@ -2,7 +2,7 @@
 # The landmark-confidence experiment of issue 4: every policy x every world x three odometry
 # noise levels (0 = exact, 1 = the world's default, 3 = three times it). Simulates the worlds
 # into OUT (default out/experiments), runs `twocam run` once per cell and prints the table
-# (scripts/landmark_table.py). About 40 minutes on one core. Usage: scripts/landmark_table.sh [OUT]
+# (scripts/landmark_table.py). About 15 minutes on one core. Usage: scripts/landmark_table.sh [OUT]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-out/experiments}"
