@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <optional>
@@ -181,14 +182,84 @@ TEST(TwocamCli, BadInputGivesClearErrorAndNoLog) {
   EXPECT_NE(zero.exit_code, 0);
   EXPECT_NE(zero.output.find("--frames"), std::string::npos) << zero.output;
   EXPECT_FALSE(fs::exists(dir + "/z.rawlog"));
-  const RunResult negative_noise = run("simulate " + smallWorld() + " -o " + dir +
-                                       "/n.rawlog --odometry-noise-scale -1 -q");
+  const RunResult negative_noise =
+      run("simulate " + smallWorld() + " -o " + dir + "/n.rawlog --odometry-noise-scale -1 -q");
   EXPECT_NE(negative_noise.exit_code, 0);
   EXPECT_NE(negative_noise.output.find("--odometry-noise-scale"), std::string::npos)
       << negative_noise.output;
   EXPECT_FALSE(fs::exists(dir + "/n.rawlog"));
   const RunResult missing_arg = run("simulate " + smallWorld());
   EXPECT_NE(missing_arg.exit_code, 0);
+}
+
+// ---- run ------------------------------------------------------------------------------------
+
+/// Copies a log frame by frame, letting `edit` change each frame (or drop its odometry).
+Status rewriteLog(const std::string& in,
+                  const std::string& out,
+                  const std::function<void(io::LogFrame*)>& edit) {
+  std::unique_ptr<io::RawlogReader> reader;
+  if (Status s = io::RawlogReader::open(in, &reader); !s) return s;
+  std::unique_ptr<io::RawlogWriter> writer;
+  if (Status s = io::RawlogWriter::open(out, reader->rig(), io::RawlogWriterOptions(), &writer);
+      !s) {
+    return s;
+  }
+  io::LogFrame f;
+  Status status;
+  while (reader->next(&f, &status)) {
+    edit(&f);
+    const OdometrySample* odo = f.odometry ? &*f.odometry : nullptr;
+    const GroundTruthFrame* gt = f.ground_truth ? &*f.ground_truth : nullptr;
+    if (Status s = writer->write(f.stereo, odo, gt); !s) return s;
+  }
+  if (!status) return status;
+  return writer->finish();
+}
+
+TEST(TwocamCli, RunSkipsBadOdometryFramesAndRefusesALogWithoutOdometry) {
+  const std::string dir = test::makeTempDir("cli_run_bad_input");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/ok.rawlog --frames 8 --seed 3 -q")
+                .exit_code,
+            0);
+  // Frame 2: NaN odometry. Frame 5: time stamp before frame 4's.
+  int64_t t4 = 0;
+  ASSERT_TRUE(rewriteLog(dir + "/ok.rawlog", dir + "/bad.rawlog", [&](io::LogFrame* f) {
+                if (f->index == 2 && f->odometry) {
+                  f->odometry->pose.x_m = std::numeric_limits<double>::quiet_NaN();
+                }
+                if (f->index == 4) t4 = f->stereo.t_ns;
+                if (f->index == 5) {
+                  f->stereo.t_ns = t4 - 1000;
+                  if (f->odometry) f->odometry->t_ns = f->stereo.t_ns;
+                  if (f->ground_truth) f->ground_truth->t_ns = f->stereo.t_ns;
+                }
+              }).isOk());
+  const RunResult bad = run("run " + dir + "/bad.rawlog -o " + dir + "/out_bad -q");
+  EXPECT_EQ(bad.exit_code, 0) << bad.output;
+  size_t warnings = 0;
+  for (size_t at = bad.error.find("warning: skipping"); at != std::string::npos;
+       at = bad.error.find("warning: skipping", at + 1)) {
+    ++warnings;
+  }
+  EXPECT_EQ(warnings, 2u) << bad.error;
+  EXPECT_TRUE(fs::exists(dir + "/out_bad/metrics.json"));
+  EXPECT_TRUE(fs::exists(dir + "/out_bad/landmarks.csv"));
+
+  ASSERT_TRUE(rewriteLog(dir + "/ok.rawlog", dir + "/no_odo.rawlog", [](io::LogFrame* f) {
+                f->odometry.reset();
+              }).isOk());
+  const RunResult no_odo = run("run " + dir + "/no_odo.rawlog -o " + dir + "/out_no_odo -q");
+  EXPECT_NE(no_odo.exit_code, 0);
+  EXPECT_NE(no_odo.error.find("no odometry"), std::string::npos) << no_odo.error;
+  EXPECT_FALSE(fs::exists(dir + "/out_no_odo/metrics.json"));
+
+  const RunResult missing = run("run " + dir + "/nope.rawlog -o " + dir + "/out_missing -q");
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.error.find("nope.rawlog"), std::string::npos) << missing.error;
+  const RunResult policy = run("run " + dir + "/ok.rawlog -o " + dir + "/out_p --policy best -q");
+  EXPECT_NE(policy.exit_code, 0);
+  EXPECT_NE(policy.error.find("best"), std::string::npos) << policy.error;
 }
 
 // ---- stereo-eval ----------------------------------------------------------------------------
