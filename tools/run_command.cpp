@@ -147,7 +147,7 @@ int runRun(const RunArgs& args) {
   std::ostringstream csv;
   csv << std::setprecision(9);
   csv << "id,x,y,z,confirmed,confidence,n_obs,first_frame,anchor_frame,anchor_u,anchor_v,anchor_d,confirmed_frame,"
-         "verdict,error_m,anchor_d_gt,estimate_anchor_d\n";
+         "verdict,error_m,anchor_d_gt,estimate_anchor_d,anchor_d_gt_near,anchor_d_gt_far\n";
   for (const landmarks::Landmark& l : db.landmarks()) {
     if (l.state == landmarks::LandmarkState::kFree) continue;
     const int verdict = has_gt ? evaluator.verdict(l) : -1;
@@ -162,7 +162,13 @@ int runRun(const RunArgs& args) {
     if (std::isfinite(d_gt)) csv << d_gt;
     // The estimate's disparity seen from the anchor camera (equals anchor_d until refined).
     const Eigen::Vector3d p_ca = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig.T_b_cl).inverse() * l.p_w;
-    csv << ',' << rig.fx_px * rig.baseline_m / p_ca.z() << '\n';
+    csv << ',' << rig.fx_px * rig.baseline_m / p_ca.z() << ',';
+    const double d_near = has_gt ? evaluator.anchorDisparityNear(l) : std::nan("");
+    const double d_far = has_gt ? evaluator.anchorDisparityFar(l) : std::nan("");
+    if (std::isfinite(d_near)) csv << d_near;
+    csv << ',';
+    if (std::isfinite(d_far)) csv << d_far;
+    csv << '\n';
   }
 
   std::ostringstream json;

@@ -63,7 +63,25 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
   for (uint32_t slot : report.created_slots) {
     const landmarks::Landmark& l = db.landmarks()[slot];
     AnchorTruth t;
-    t.valid = gt_at(static_cast<int>(l.anchor.u_px), static_cast<int>(l.anchor.v_px), &t.d_gt, &t.z_gt);
+    const int u0 = static_cast<int>(l.anchor.u_px), v0 = static_cast<int>(l.anchor.v_px);
+    t.valid = gt_at(u0, v0, &t.d_gt, &t.z_gt);
+    float z_min = std::numeric_limits<float>::infinity(), z_max = 0.0f;
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        const int uu = u0 + du, vv = v0 + dv;
+        const float z = (uu >= 0 && vv >= 0 && uu < gt_depth.width && vv < gt_depth.height) ? gt_depth(uu, vv) : 0.0f;
+        if (!(std::isfinite(z) && z > 0.0f)) {
+          z_min = std::numeric_limits<float>::quiet_NaN();
+          break;
+        }
+        z_min = std::min(z_min, z);
+        z_max = std::max(z_max, z);
+      }
+      if (std::isnan(z_min)) break;
+    }
+    const double fx_b = rig_.fx_px * rig_.baseline_m;
+    t.d_near = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(fx_b / z_min);
+    t.d_far = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(fx_b / z_max);
     anchors_[l.id] = t;
   }
   return Status::ok();
@@ -83,6 +101,16 @@ double LandmarkEvaluator::anchorDisparityGt(const landmarks::Landmark& l) const 
   const auto it = anchors_.find(l.id);
   if (it == anchors_.end() || !it->second.valid) return std::numeric_limits<double>::quiet_NaN();
   return it->second.d_gt;
+}
+
+double LandmarkEvaluator::anchorDisparityNear(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  return it == anchors_.end() ? std::numeric_limits<double>::quiet_NaN() : it->second.d_near;
+}
+
+double LandmarkEvaluator::anchorDisparityFar(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  return it == anchors_.end() ? std::numeric_limits<double>::quiet_NaN() : it->second.d_far;
 }
 
 double LandmarkEvaluator::errorM(const landmarks::Landmark& l) const {
@@ -123,6 +151,18 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
     frames_to_confirm.push_back(static_cast<double>(l.confirmed_frame - l.first_frame));
     if (v < 0) {
       ++m.unjudged_confirmed;
+      const auto it = anchors_.find(l.id);
+      const Eigen::Isometry3d T_cl_w = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
+      Eigen::Vector3d uvd;
+      const bool projects = it != anchors_.end() && landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd) &&
+                            std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px) <= kTruthTolPx;
+      if (projects && std::abs(uvd.z() - it->second.d_near) <= kTruthTolPx) {
+        ++m.unjudged_near_side;
+      } else if (projects && std::abs(uvd.z() - it->second.d_far) <= kTruthTolPx) {
+        ++m.unjudged_far_side;
+      } else {
+        ++m.unjudged_neither;
+      }
       continue;
     }
     m.correct_confirmed += v;
@@ -156,6 +196,9 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
   s << i2 << "\"correct_confirmed\": " << m.correct_confirmed << ",\n";
   s << i2 << "\"confirmed\": " << m.confirmed << ",\n";
   s << i2 << "\"unjudged_confirmed\": " << m.unjudged_confirmed << ",\n";
+  s << i2 << "\"unjudged_near_side\": " << m.unjudged_near_side << ",\n";
+  s << i2 << "\"unjudged_far_side\": " << m.unjudged_far_side << ",\n";
+  s << i2 << "\"unjudged_neither\": " << m.unjudged_neither << ",\n";
   s << i2 << "\"candidates\": " << m.candidates << ",\n";
   s << i2 << "\"median_error_m\": " << num(m.median_error_m) << ",\n";
   s << i2 << "\"p90_error_m\": " << num(m.p90_error_m) << ",\n";

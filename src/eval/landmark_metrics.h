@@ -40,6 +40,14 @@ struct LandmarkMetrics {
   int64_t confirmed = 0;
   int64_t correct_confirmed = 0;
   int64_t unjudged_confirmed = 0;  ///< anchor pixel without defined ground truth (depth edge)
+  /// Of the unjudged confirmed landmarks, those that reproject within 1 px of the anchor with a
+  /// disparity within 1 px of the nearest (foreground) surface of the anchor's 3x3 neighbourhood,
+  /// of the farthest (background) one, or of neither. Diagnostic only: a silhouette corner on the
+  /// foreground is a real point, a T-junction of two depths is not, and the 3x3 ground truth
+  /// cannot tell them apart; `precision` counts all of them as not correct.
+  int64_t unjudged_near_side = 0;
+  int64_t unjudged_far_side = 0;
+  int64_t unjudged_neither = 0;
   /// Percent of confirmed landmarks that are correct (METRICS.md: correct confirmed /
   /// confirmed). A landmark whose anchor pixel has no defined ground truth (a depth edge) is
   /// not correct: nobody can say where it should be.
@@ -72,6 +80,10 @@ class LandmarkEvaluator {
   [[nodiscard]] int verdict(const landmarks::Landmark& l) const;
   /// Ground-truth disparity at the landmark's anchor pixel [px] (NaN when unjudged).
   [[nodiscard]] double anchorDisparityGt(const landmarks::Landmark& l) const;
+  /// Largest and smallest true disparity over the anchor's 3x3 neighbourhood [px] (NaN when a
+  /// neighbour has no surface or the landmark is unknown).
+  [[nodiscard]] double anchorDisparityNear(const landmarks::Landmark& l) const;
+  [[nodiscard]] double anchorDisparityFar(const landmarks::Landmark& l) const;
   /// Error of a landmark [m] (NaN when unjudged).
   [[nodiscard]] double errorM(const landmarks::Landmark& l) const;
 
@@ -80,6 +92,11 @@ class LandmarkEvaluator {
     float d_gt = 0.0f;   ///< ground-truth disparity at the anchor pixel [px]
     float z_gt = 0.0f;   ///< ground-truth depth at the anchor pixel [m]
     bool valid = false;  ///< ground truth defined there
+    /// Nearest and farthest surface over the anchor's 3x3 neighbourhood as disparities [px]
+    /// (NaN when some neighbour sees no surface): where ground truth is undefined (a depth
+    /// edge) they tell which side of the edge a landmark took.
+    float d_near = 0.0f;
+    float d_far = 0.0f;
   };
   StereoRig rig_;
   DisparityGroundTruth gt_;
