@@ -1,0 +1,257 @@
+#include "mapping/occupancy_mapper.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <utility>
+
+namespace twocam::mapping {
+namespace {
+
+// An OcTreeKey packed into one integer (16 bits per axis, x most significant), so key sets
+// are sorted vectors: no per-frame allocation, and the update order is deterministic.
+uint64_t pack(const octomap::OcTreeKey& k) {
+  return (static_cast<uint64_t>(k[0]) << 32U) | (static_cast<uint64_t>(k[1]) << 16U) | k[2];
+}
+
+octomap::OcTreeKey unpack(uint64_t p) {
+  return octomap::OcTreeKey(static_cast<octomap::key_type>((p >> 32U) & 0xFFFFU),
+                            static_cast<octomap::key_type>((p >> 16U) & 0xFFFFU),
+                            static_cast<octomap::key_type>(p & 0xFFFFU));
+}
+
+octomap::point3d toOctomap(const Eigen::Vector3d& p) {
+  return {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())};
+}
+
+/// Spreads the 16 bits of v to every third bit (bit i -> bit 3 i).
+uint64_t spreadBits(uint64_t v) {
+  v &= 0xFFFFU;
+  v = (v | (v << 16U)) & 0x0000FF0000FFULL;
+  v = (v | (v << 8U)) & 0x00F00F00F00FULL;
+  v = (v | (v << 4U)) & 0x0C30C30C30C3ULL;
+  v = (v | (v << 2U)) & 0x249249249249ULL;
+  return v;
+}
+
+/// Morton code of a key with OctoMap's child numbering (x -> bit 0, y -> bit 1, z -> bit 2 of
+/// the child index): sorted codes list each subtree's keys contiguously, and the child index
+/// at tree depth d is (code >> 3 (15 - d)) & 7.
+uint64_t morton(const octomap::OcTreeKey& k) {
+  return spreadBits(k[0]) | (spreadBits(k[1]) << 1U) | (spreadBits(k[2]) << 2U);
+}
+
+// An update is (morton code << 1) | hit: sorting puts a voxel's miss right before its hit.
+constexpr uint64_t kHitFlag = 1U;
+
+/// Applies sorted, de-duplicated updates [begin, end) under `node` at `depth` in one descent:
+/// each touched node is visited once, inner occupancies are refreshed and nodes pruned on the
+/// way back up. Same tree as OctoMap's updateNode(key, occupied, lazy_eval = false) per key
+/// (OccupancyOcTreeBase::updateNodeRecurs), without the 16 levels of inner updates per key.
+void updateSubtree(octomap::OcTree* tree,
+                   octomap::OcTreeNode* node,
+                   bool node_just_created,
+                   unsigned depth,
+                   const uint64_t* begin,
+                   const uint64_t* end,
+                   float hit_log_odds,
+                   float miss_log_odds) {
+  const unsigned tree_depth = tree->getTreeDepth();
+  if (!node_just_created && !tree->nodeHasChildren(node)) {
+    // A known leaf (finest voxel or pruned cube) at a clamping bound that receives only
+    // updates pushing against that bound stays as it is: skip it, as OctoMap's updateNode
+    // does per key. This spares expanding and re-pruning large free cubes every frame.
+    const float log_odds = node->getLogOdds();
+    const bool at_min = log_odds <= tree->getClampingThresMinLog();
+    const bool at_max = log_odds >= tree->getClampingThresMaxLog();
+    if (at_min || at_max) {
+      const uint64_t pushing = at_max ? kHitFlag : 0U;
+      if (std::all_of(begin, end, [pushing](uint64_t u) { return (u & kHitFlag) == pushing; }))
+        return;
+    }
+  }
+  if (depth == tree_depth) {
+    assert(end - begin == 1);
+    tree->updateNodeLogOdds(node, (*begin & kHitFlag) != 0U ? hit_log_odds : miss_log_odds);
+    return;
+  }
+  // A leaf above the finest level that existed before is a pruned node: expand it first.
+  if (!tree->nodeHasChildren(node) && !node_just_created) tree->expandNode(node);
+  const unsigned shift = 3U * (tree_depth - 1U - depth) + 1U;
+  for (const uint64_t* it = begin; it != end;) {
+    const auto child = static_cast<unsigned>((*it >> shift) & 7U);
+    const uint64_t* run_end = it + 1;
+    while (run_end != end && ((*run_end >> shift) & 7U) == child) ++run_end;
+    bool created = false;
+    if (!tree->nodeChildExists(node, child)) {
+      tree->createNodeChild(node, child);
+      created = true;
+    }
+    updateSubtree(tree,
+                  tree->getNodeChild(node, child),
+                  created,
+                  depth + 1,
+                  it,
+                  run_end,
+                  hit_log_odds,
+                  miss_log_odds);
+    it = run_end;
+  }
+  if (!tree->pruneNode(node)) node->updateOccupancyChildren();
+}
+
+}  // namespace
+
+OccupancyMapper::OccupancyMapper(const MappingOptions& options)
+    : options_(options), tree_(options.resolution_m) {
+  const Status st = options.validate();
+  TWOCAM_CHECK(st.isOk()) << "invalid MappingOptions: " << st.message();
+  tree_.setProbHit(options.prob_hit);
+  tree_.setProbMiss(options.prob_miss);
+  tree_.setClampingThresMin(options.clamp_min);
+  tree_.setClampingThresMax(options.clamp_max);
+  tree_.setOccupancyThres(options.occupied_threshold);
+}
+
+void OccupancyMapper::insertFrame(const Eigen::Vector3d& camera_origin_w,
+                                  const std::vector<Eigen::Vector3d>& points_w) {
+  TWOCAM_CHECK(camera_origin_w.allFinite()) << "camera origin " << camera_origin_w.transpose();
+  const octomap::point3d origin = toOctomap(camera_origin_w);
+  octomap::OcTreeKey origin_key;
+  TWOCAM_CHECK(tree_.coordToKeyChecked(origin, origin_key))
+      << "camera origin " << camera_origin_w.transpose() << " is outside the octree";
+
+  ++stats_.frames;
+  end_codes_.clear();
+  updates_.clear();
+  octomap::OcTreeKey first_end_key;
+  const double max_range_sq = options_.max_range_m * options_.max_range_m;
+  for (const Eigen::Vector3d& p_w : points_w) {
+    if (!p_w.allFinite()) {
+      ++stats_.points_invalid;
+      continue;
+    }
+    if ((p_w - camera_origin_w).squaredNorm() > max_range_sq) {
+      ++stats_.points_beyond_range;
+      continue;
+    }
+    const octomap::point3d end = toOctomap(p_w);
+    octomap::OcTreeKey end_key;
+    if (!tree_.coordToKeyChecked(end, end_key)) {
+      ++stats_.points_invalid;
+      continue;
+    }
+    ++stats_.points_inserted;
+    const uint64_t code = morton(end_key);
+    // Discretised update (as OctoMap's insertPointCloud(..., discretize = true)): one ray per
+    // distinct end voxel. A frame holds some hundred landmarks, for which a linear scan of
+    // this frame's end voxels is cheaper than a hash set.
+    if (std::find(end_codes_.begin(), end_codes_.end(), code) != end_codes_.end()) continue;
+    if (end_codes_.empty()) first_end_key = end_key;
+    end_codes_.push_back(code);
+    updates_.push_back((code << 1U) | kHitFlag);
+    // computeRayKeys lists the voxels from the origin's up to, excluding, the end voxel.
+    if (options_.insert_free_space && tree_.computeRayKeys(origin, end, ray_)) {
+      for (const octomap::OcTreeKey& k : ray_) updates_.push_back(morton(k) << 1U);
+    }
+  }
+  // One update per voxel: keep the last of each run of equal codes, which is the hit when
+  // the voxel holds a landmark of this frame (a hit wins over a miss).
+  std::sort(updates_.begin(), updates_.end());
+  size_t kept = 0;
+  int64_t hits = 0;
+  for (size_t i = 0; i < updates_.size(); ++i) {
+    if (i + 1 < updates_.size() && (updates_[i + 1] >> 1U) == (updates_[i] >> 1U)) continue;
+    hits += static_cast<int64_t>(updates_[i] & kHitFlag);
+    updates_[kept++] = updates_[i];
+  }
+  updates_.resize(kept);
+  stats_.last_frame_hits = hits;
+  stats_.last_frame_misses = static_cast<int64_t>(kept) - hits;
+  if (updates_.empty()) return;
+  if (tree_.getRoot() == nullptr) {
+    // OctoMap creates the root only through its own update path: a zero update of a voxel
+    // that gets its hit below does that (a new node starts at log-odds 0 anyway).
+    tree_.updateNode(first_end_key, 0.0F, true);
+  }
+  updateSubtree(&tree_,
+                tree_.getRoot(),
+                false,
+                0,
+                updates_.data(),
+                updates_.data() + updates_.size(),
+                tree_.getProbHitLog(),
+                tree_.getProbMissLog());
+}
+
+std::vector<Voxel> OccupancyMapper::occupiedVoxels() const {
+  return mapping::occupiedVoxels(tree_);
+}
+
+std::vector<Voxel> occupiedVoxels(const octomap::OcTree& tree) {
+  const unsigned max_depth = tree.getTreeDepth();
+  std::vector<std::pair<uint64_t, float>> cells;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const float probability = static_cast<float>(it->getOccupancy());
+    if (it.getDepth() == max_depth) {
+      cells.emplace_back(pack(it.getKey()), probability);
+      continue;
+    }
+    // A pruned leaf: expand into its finest-resolution voxels (smallest child key first).
+    const octomap::OcTreeKey base = it.getIndexKey();
+    const unsigned n = 1U << (max_depth - it.getDepth());
+    for (unsigned i = 0; i < n; ++i) {
+      for (unsigned j = 0; j < n; ++j) {
+        for (unsigned k = 0; k < n; ++k) {
+          const octomap::OcTreeKey key(static_cast<octomap::key_type>(base[0] + i),
+                                       static_cast<octomap::key_type>(base[1] + j),
+                                       static_cast<octomap::key_type>(base[2] + k));
+          cells.emplace_back(pack(key), probability);
+        }
+      }
+    }
+  }
+  // Key order is centre order: keyToCoord is increasing in the key.
+  std::sort(cells.begin(), cells.end());
+  std::vector<Voxel> voxels;
+  voxels.reserve(cells.size());
+  const double resolution_m = tree.getResolution();
+  for (const auto& [packed, probability] : cells) {
+    const octomap::OcTreeKey key = unpack(packed);
+    Voxel v;
+    v.centre_m =
+        Eigen::Vector3d(tree.keyToCoord(key[0]), tree.keyToCoord(key[1]), tree.keyToCoord(key[2]));
+    v.size_m = resolution_m;
+    v.probability = probability;
+    voxels.push_back(v);
+  }
+  return voxels;
+}
+
+Status OccupancyMapper::writeBinary(const std::string& path) const {
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+    if (!out) {
+      return Status::error("cannot write octomap '" + partial + "': " + std::strerror(errno));
+    }
+    const bool written = tree_.writeBinaryConst(out);
+    out.close();
+    if (!written || out.fail()) {
+      std::remove(partial.c_str());
+      return Status::error("writing octomap '" + partial + "' failed");
+    }
+  }
+  if (std::rename(partial.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    std::remove(partial.c_str());
+    return Status::error("cannot rename '" + partial + "' to '" + path + "': " + reason);
+  }
+  return Status::ok();
+}
+
+}  // namespace twocam::mapping
