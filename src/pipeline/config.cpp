@@ -1,0 +1,706 @@
+#include "pipeline/config.h"
+
+#include <mrpt/containers/yaml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace twocam::pipeline {
+namespace {
+
+using Yaml = mrpt::containers::yaml;
+using Node = Yaml::node_t;
+
+// ---- every field mapped ----------------------------------------------------------------------
+// The option structs are aggregates, so their field count is the largest N for which T{x1..xN}
+// compiles. The static_asserts below fail when a field is added or removed without updating the
+// visit functions: update the visit function, the count here and in tests/pipeline/config_test.cpp,
+// docs/config.md and configs/default.yaml (TWOCAM_REGENERATE_CONFIGS=1 ctest -R
+// PipelineConfigDefaultFile).
+
+struct AnyField {
+  template <typename T>
+  operator T() const;  // NOLINT(google-explicit-constructor): only used in unevaluated context
+};
+template <typename T, typename Seq, typename = void>
+struct BraceInitializable : std::false_type {};
+template <typename T, size_t... I>
+struct BraceInitializable<T,
+                          std::index_sequence<I...>,
+                          std::void_t<decltype(T{(void(I), AnyField{})...})>> : std::true_type {};
+template <typename T, size_t N = 0>
+constexpr size_t fieldCount() {
+  if constexpr (BraceInitializable<T, std::make_index_sequence<N + 1>>::value) {
+    return fieldCount<T, N + 1>();
+  } else {
+    return N;
+  }
+}
+
+static_assert(fieldCount<frontend::HarrisOptions>() == 13,
+              "HarrisOptions gained or lost a field: map it in visitHarris (see above)");
+static_assert(fieldCount<frontend::SalientSadOptions>() == 13,
+              "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
+static_assert(fieldCount<frontend::FrontendOptions>() == 3,
+              "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 43,
+              "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
+static_assert(fieldCount<mapping::MappingOptions>() == 8,
+              "MappingOptions gained or lost a field: map it in visitMapping (see above)");
+static_assert(fieldCount<PipelineConfig>() == 4,
+              "PipelineConfig gained or lost a field: map it in visitConfig (see above)");
+
+// ---- the layout: one visit function per struct ------------------------------------------------
+// A visitor V provides
+//   v(key, field, comment)               for a leaf (T& when reading, const T& when writing),
+//   v.section(key, comment, fn)          for a nested map; fn(V&) visits its keys.
+// Reading, writing and the list of allowed keys all come from these functions, so they cannot
+// disagree. Comments give the meaning, unit [in brackets] and constraint, from the headers.
+
+/// A leaf whose YAML key is the field's name, by construction.
+#define TWOCAM_CONFIG_KEY(field, comment) v(#field, o.field, comment)
+
+template <typename O, typename V>
+void visitHarris(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(k, "Harris sensitivity in det(M) - k trace(M)^2 [-], in (0, 0.25)");
+  TWOCAM_CONFIG_KEY(border_px, "no corner closer than this to an image edge [px], >= 4");
+  TWOCAM_CONFIG_KEY(target_count, "corners per frame the adaptive threshold steers to [-]");
+  TWOCAM_CONFIG_KEY(initial_threshold, "threshold on R for the first frame [grey level^4]");
+  TWOCAM_CONFIG_KEY(threshold_adapt_rate,
+                    "weight of the latest frame in the threshold update [-], in [0, 1]");
+  TWOCAM_CONFIG_KEY(threshold_min, "lower clamp of the adaptive threshold [grey level^4]");
+  TWOCAM_CONFIG_KEY(threshold_max, "upper clamp of the adaptive threshold [grey level^4]");
+  TWOCAM_CONFIG_KEY(max_corners, "hard cap on corners per frame, strongest kept [-]");
+  TWOCAM_CONFIG_KEY(bucketing, "keep at most max_per_cell corners per grid cell [bool]");
+  TWOCAM_CONFIG_KEY(grid_cols, "bucketing grid columns [-]");
+  TWOCAM_CONFIG_KEY(grid_rows, "bucketing grid rows [-]");
+  TWOCAM_CONFIG_KEY(max_per_cell, "corners kept per bucketing cell [-]");
+  TWOCAM_CONFIG_KEY(use_avx2, "use the AVX2 kernels when the CPU has them (same results) [bool]");
+}
+
+template <typename O, typename V>
+void visitSad(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(window_width_px, "width W of the 1xW matching window [px], odd, in [3, 63]");
+  TWOCAM_CONFIG_KEY(min_disparity_px, "smallest disparity searched [px], >= 0");
+  TWOCAM_CONFIG_KEY(max_disparity_px, "largest disparity searched [px], max - min + 1 <= 256");
+  TWOCAM_CONFIG_KEY(row_tolerance_px, "right rows v-m..v+m are searched too [px], in [0, 8]");
+  TWOCAM_CONFIG_KEY(max_hypotheses, "rival hypotheses kept per point [-], in [1, 255]");
+  TWOCAM_CONFIG_KEY(cost_ratio, "keep minima costing <= cost_ratio * best cost [-], >= 1");
+  TWOCAM_CONFIG_KEY(min_separation_px, "distinct minima at least this far apart [px], >= 1");
+  TWOCAM_CONFIG_KEY(lr_tolerance_px, "right-to-left check tolerance [px], >= 0");
+  TWOCAM_CONFIG_KEY(lr_check, "run the right-to-left check [bool]");
+  TWOCAM_CONFIG_KEY(max_cost_per_px,
+                    "drop hypotheses costing more than this * W [grey levels/px], 255 = off");
+  TWOCAM_CONFIG_KEY(shiftable_windows,
+                    "also match windows ending and starting at the corner [bool]");
+  TWOCAM_CONFIG_KEY(zero_mean, "zero-mean SAD, robust to a brightness offset [bool]");
+  TWOCAM_CONFIG_KEY(kernel, "SAD implementation, identical results: auto | scalar | sse2 | avx2");
+}
+
+template <typename O, typename V>
+void visitFrontend(O& o, V& v) {
+  v.section(
+      "harris", "Harris corners (frontend/harris.h)", [&](V& s) { visitHarris(o.harris, s); });
+  v.section("sad", "salient 1-D SAD matching (frontend/salient_sad.h)", [&](V& s) {
+    visitSad(o.sad, s);
+  });
+  TWOCAM_CONFIG_KEY(source, "where hypotheses come from: sad | pairing");
+}
+
+template <typename O, typename V>
+void visitLandmarks(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(
+      policy, "confirmation rule: consistency | wta-lrc | seen-count | culling | inlier-ratio");
+  TWOCAM_CONFIG_KEY(odom_trans_sigma_per_sqrt_m, "random translation error [m/sqrt(m)]");
+  TWOCAM_CONFIG_KEY(odom_trans_scale_sigma, "systematic relative distance error [-]");
+  TWOCAM_CONFIG_KEY(odom_rot_sigma_per_sqrt_rad, "random heading error [rad/sqrt(rad)]");
+  TWOCAM_CONFIG_KEY(odom_rot_scale_sigma, "systematic relative heading error [-]");
+  TWOCAM_CONFIG_KEY(odom_rot_sigma_per_m, "heading error per metre driven [rad/m]");
+  TWOCAM_CONFIG_KEY(pixel_sigma_px, "corner localisation noise [px], > 0");
+  TWOCAM_CONFIG_KEY(disparity_sigma_px, "disparity noise of a sub-pixel match [px], > 0");
+  TWOCAM_CONFIG_KEY(gate_chi2, "association gate on squared Mahalanobis distance in (u, v, d) [-]");
+  TWOCAM_CONFIG_KEY(visibility_border_px, "predictions nearer the edge are not visible [px]");
+  TWOCAM_CONFIG_KEY(min_depth_m, "nearer landmarks are not predicted [m], > 0");
+  TWOCAM_CONFIG_KEY(min_disparity_px,
+                    "frontend search range; twocam run sets it from frontend.sad [px]");
+  TWOCAM_CONFIG_KEY(max_disparity_px,
+                    "frontend search range; twocam run sets it from frontend.sad [px]");
+  TWOCAM_CONFIG_KEY(prior_real,
+                    "prior that a point's hypotheses hold the real match [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(detection_prob,
+                    "re-detection probability of a visible landmark [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(max_hit_evidence, "cap on the evidence of one hit [nats], > 0");
+  TWOCAM_CONFIG_KEY(stability_evidence,
+                    "evidence of an anchor-consistent re-observation [nats], >= 0");
+  TWOCAM_CONFIG_KEY(evidence_step_m, "motion needed between counted evidence [m], >= 0");
+  TWOCAM_CONFIG_KEY(anchor_gate_chi2,
+                    "anchor check gate on squared Mahalanobis distance (row, d) [-]");
+  TWOCAM_CONFIG_KEY(contradiction_evidence, "evidence of an anchor contradiction [nats], <= 0");
+  TWOCAM_CONFIG_KEY(confirm_prob, "existence probability needed to confirm [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(verify_min_offset_px, "phantom disparity offset, absolute part [px], >= 0");
+  TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
+  TWOCAM_CONFIG_KEY(verify_chi2, "phantom must be predicted this far away to confirm [-], >= 0");
+  TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
+  TWOCAM_CONFIG_KEY(prune_prob,
+                    "candidates below this probability are pruned [-], in [0, confirm_prob)");
+  TWOCAM_CONFIG_KEY(seen_count_min, "seen-count: observations needed [-], >= 1");
+  TWOCAM_CONFIG_KEY(seen_count_window_s, "seen-count: window they must fall into [s], > 0");
+  TWOCAM_CONFIG_KEY(culling_min_found_ratio, "culling: minimum found/visible [-], in [0, 1]");
+  TWOCAM_CONFIG_KEY(culling_min_observations, "culling: minimum observations [-], >= 1");
+  TWOCAM_CONFIG_KEY(culling_decision_frames,
+                    "culling: frames after creation the rule applies [-], >= 1");
+  TWOCAM_CONFIG_KEY(svo_converged_sigma_fraction,
+                    "inlier-ratio: convergence sigma / range [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(svo_min_inlier_ratio, "inlier-ratio: ratio needed to confirm [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(svo_prune_inlier_ratio, "inlier-ratio: seeds below this are dropped [-]");
+  TWOCAM_CONFIG_KEY(max_consecutive_misses,
+                    "candidate dropped after this many misses [frames], >= 0");
+  TWOCAM_CONFIG_KEY(max_confirmed_misses,
+                    "confirmed landmark retired after this many misses [frames], >= 1");
+  TWOCAM_CONFIG_KEY(max_frames_out_of_view,
+                    "candidate dropped after this long out of view [frames], >= 0");
+  TWOCAM_CONFIG_KEY(max_confirmed, "cap on confirmed landmarks, least recently seen dropped [-]");
+  TWOCAM_CONFIG_KEY(max_candidates, "cap on live candidates, least confident dropped [-]");
+  TWOCAM_CONFIG_KEY(max_observations, "observations kept per landmark for refinement [-], >= 2");
+  TWOCAM_CONFIG_KEY(refine, "refine a landmark's depth with Ceres when confirmed [bool]");
+  TWOCAM_CONFIG_KEY(seed_depth_edges,
+                    "seed candidates from shifted-window (depth edge) matches [bool]");
+  TWOCAM_CONFIG_KEY(refine_huber, "Huber loss scale of the refinement [sigma], > 0");
+}
+
+template <typename O, typename V>
+void visitMapping(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(resolution_m, "edge length of the finest voxel [m]");
+  TWOCAM_CONFIG_KEY(max_range_m, "farther landmarks are not inserted [m]");
+  TWOCAM_CONFIG_KEY(prob_hit, "occupancy update of a landmark's voxel [-]");
+  TWOCAM_CONFIG_KEY(prob_miss, "occupancy update of a voxel a ray passes [-]");
+  TWOCAM_CONFIG_KEY(clamp_min, "lower clamp of voxel probabilities [-]");
+  TWOCAM_CONFIG_KEY(clamp_max, "upper clamp of voxel probabilities [-]");
+  TWOCAM_CONFIG_KEY(occupied_threshold, "a voxel is occupied above this probability [-]");
+  TWOCAM_CONFIG_KEY(insert_free_space, "carve free space along each ray [bool]");
+}
+
+template <typename O, typename V>
+void visitConfig(O& o, V& v) {
+  v.section("frontend", "corners and stereo hypotheses (frontend/frontend.h)", [&](V& s) {
+    visitFrontend(o.frontend, s);
+  });
+  v.section("landmarks", "landmark database (landmarks/options.h, docs/landmarks.md)", [&](V& s) {
+    visitLandmarks(o.landmarks, s);
+  });
+  v.section("mapping", "occupancy mapping (mapping/options.h)", [&](V& s) {
+    visitMapping(o.mapping, s);
+  });
+  TWOCAM_CONFIG_KEY(seed,
+                    "recorded for reproducibility; twocam run draws no random numbers today [-]");
+}
+
+#undef TWOCAM_CONFIG_KEY
+
+// ---- enums -------------------------------------------------------------------------------------
+
+struct KernelName {
+  frontend::SadKernel kernel;
+  const char* name;
+};
+constexpr KernelName kKernelNames[] = {{frontend::SadKernel::kAuto, "auto"},
+                                       {frontend::SadKernel::kScalar, "scalar"},
+                                       {frontend::SadKernel::kSse2, "sse2"},
+                                       {frontend::SadKernel::kAvx2, "avx2"}};
+
+const char* kernelName(frontend::SadKernel kernel) {
+  for (const KernelName& k : kKernelNames) {
+    if (k.kernel == kernel) return k.name;
+  }
+  return "unknown";
+}
+
+Status parseKernel(const std::string& name, frontend::SadKernel* kernel) {
+  for (const KernelName& k : kKernelNames) {
+    if (name == k.name) {
+      *kernel = k.kernel;
+      return Status::ok();
+    }
+  }
+  return Status::error("unknown SAD kernel '" + name + "'; expected auto, scalar, sse2 or avx2");
+}
+
+// ---- writing -----------------------------------------------------------------------------------
+
+/// Shortest decimal text that reads back to the same value (std::to_chars round-trip guarantee).
+/// "1e+08" becomes "1.0e+08": YAML 1.1 readers (PyYAML) take an exponent without a dot for a
+/// string.
+template <typename T>
+std::string numberText(T value) {
+  char buffer[64];
+  const std::to_chars_result r = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  std::string s(buffer, r.ptr);
+  const size_t e = s.find('e');
+  if (e != std::string::npos && s.find('.') == std::string::npos) s.insert(e, ".0");
+  return s;
+}
+
+class Writer {
+ public:
+  void operator()(const char* key, double value, const char* comment) {
+    line(key, numberText(value), comment);
+  }
+  void operator()(const char* key, float value, const char* comment) {
+    line(key, numberText(value), comment);
+  }
+  void operator()(const char* key, int value, const char* comment) {
+    line(key, std::to_string(value), comment);
+  }
+  void operator()(const char* key, uint64_t value, const char* comment) {
+    line(key, std::to_string(value), comment);
+  }
+  void operator()(const char* key, bool value, const char* comment) {
+    line(key, value ? "true" : "false", comment);
+  }
+  void operator()(const char* key, frontend::HypothesisSource value, const char* comment) {
+    line(key, frontend::hypothesisSourceName(value), comment);
+  }
+  void operator()(const char* key, frontend::SadKernel value, const char* comment) {
+    line(key, kernelName(value), comment);
+  }
+  void operator()(const char* key, landmarks::Policy value, const char* comment) {
+    line(key, landmarks::policyName(value), comment);
+  }
+
+  template <typename F>
+  void section(const char* key, const char* comment, F&& visit) {
+    line(key, "", comment);
+    indent_ += 2;
+    visit(*this);
+    indent_ -= 2;
+  }
+
+  [[nodiscard]] std::string text() const { return out_.str(); }
+
+ private:
+  /// Comments start in a fixed column so the values line up.
+  static constexpr size_t kCommentColumn = 40;
+
+  void line(const char* key, const std::string& value, const char* comment) {
+    std::string s = std::string(indent_, ' ') + key + ":";
+    if (!value.empty()) s += " " + value;
+    s.resize(std::max(s.size() + 2, kCommentColumn), ' ');
+    out_ << s << "# " << comment << "\n";
+  }
+
+  std::ostringstream out_;
+  size_t indent_ = 0;
+};
+
+// ---- reading -----------------------------------------------------------------------------------
+
+/// Thrown by the readers and turned into a Status by parseConfigYaml: parsing a file is an I/O
+/// edge (STYLE §5), and threading a Status through ~80 key reads would bury the layout.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+[[noreturn]] void fail(const std::string& message) { throw ConfigError(message); }
+
+std::string join(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+std::string lineOf(const Node& n) { return " (line " + std::to_string(n.marks.line + 1) + ")"; }
+
+/// How a node looks in an error message: a scalar's text in quotes, or the kind of node.
+std::string describe(const Node& n) {
+  if (n.isNullNode()) return "nothing";
+  if (n.isSequence()) return "a sequence";
+  if (n.isMap()) return "a map";
+  return "\"" + n.as<std::string>() + "\"";
+}
+
+/// Levenshtein distance, for "did you mean" hints.
+size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
+      diagonal = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitute});
+    }
+  }
+  return row[b.size()];
+}
+
+std::vector<std::string> words(const std::string& key) {
+  std::vector<std::string> out;
+  std::istringstream in(key);
+  std::string w;
+  while (std::getline(in, w, '_')) {
+    if (!w.empty()) out.push_back(w);
+  }
+  return out;
+}
+
+/// The allowed keys an unknown key was probably meant to be: the nearest whole keys when within
+/// a third of the letters, else the keys sharing a near-identical word ("treshold" ->
+/// threshold_min, ...), else none.
+std::vector<std::string> suggestions(const std::string& key,
+                                     const std::vector<std::string>& allowed) {
+  std::vector<std::string> out;
+  size_t best = std::numeric_limits<size_t>::max();
+  for (const std::string& a : allowed) best = std::min(best, editDistance(key, a));
+  if (best <= std::max<size_t>(2, key.size() / 3)) {
+    for (const std::string& a : allowed) {
+      if (editDistance(key, a) == best) out.push_back(a);
+    }
+    return out;
+  }
+  for (const std::string& a : allowed) {
+    bool near = false;
+    for (const std::string& kw : words(key)) {
+      if (kw.size() < 3) continue;
+      for (const std::string& aw : words(a))
+        near = near || editDistance(kw, aw) <= std::max<size_t>(1, kw.size() / 4);
+    }
+    if (near) out.push_back(a);
+  }
+  return out;
+}
+
+std::string listed(const std::vector<std::string>& names) {
+  std::string s;
+  for (size_t i = 0; i < names.size(); ++i) s += (i == 0 ? "" : ", ") + names[i];
+  return s;
+}
+
+std::string scalarText(const Node& n, const std::string& path, const char* expected) {
+  if (!n.isScalar()) fail(path + ": expected " + expected + ", got " + describe(n) + lineOf(n));
+  return n.as<std::string>();
+}
+
+/// YAML's and C's spellings of infinity and NaN, which from_chars would accept or misreport.
+bool isNonFiniteSpelling(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (!s.empty() && (s[0] == '+' || s[0] == '-')) s.erase(0, 1);
+  return s == ".nan" || s == ".inf" || s == "nan" || s == "inf" || s == "infinity";
+}
+
+template <typename T>
+T toFloating(const Node& n, const std::string& path) {
+  const std::string s = scalarText(n, path, "a number");
+  if (isNonFiniteSpelling(s))
+    fail(path + ": must be a finite number, got \"" + s + "\"" + lineOf(n));
+  const char* begin = s.data();
+  const char* end = s.data() + s.size();
+  if (begin != end && *begin == '+') ++begin;  // from_chars rejects a leading '+'
+  T value{};
+  const std::from_chars_result r = std::from_chars(begin, end, value);
+  if (r.ec == std::errc::result_out_of_range) {
+    fail(path + ": \"" + s + "\" is out of range for a " +
+         (std::is_same_v<T, float> ? "32-bit float" : "double") + lineOf(n));
+  }
+  if (r.ec != std::errc() || r.ptr != end) {
+    fail(path + ": expected a number, got \"" + s + "\"" + lineOf(n));
+  }
+  if (!std::isfinite(value))
+    fail(path + ": must be a finite number, got \"" + s + "\"" + lineOf(n));
+  return value;
+}
+
+template <typename T>
+T toInteger(const Node& n, const std::string& path) {
+  const char* expected = std::is_signed_v<T> ? "an integer" : "a non-negative integer";
+  const std::string s = scalarText(n, path, expected);
+  const char* begin = s.data();
+  const char* end = s.data() + s.size();
+  if (begin != end && *begin == '+') ++begin;
+  T value{};
+  const std::from_chars_result r = std::from_chars(begin, end, value, 10);
+  if (r.ec == std::errc::result_out_of_range) {
+    std::ostringstream range;
+    range << "[" << +std::numeric_limits<T>::min() << ", " << +std::numeric_limits<T>::max() << "]";
+    fail(path + ": " + s + " is out of range " + range.str() + lineOf(n));
+  }
+  if (r.ec != std::errc() || r.ptr != end) {
+    fail(path + ": expected " + expected + ", got \"" + s + "\"" + lineOf(n));
+  }
+  return value;
+}
+
+bool toBool(const Node& n, const std::string& path) {
+  const std::string s = scalarText(n, path, "true or false");
+  for (const char* t : {"true", "True", "TRUE", "yes", "Yes", "YES", "on", "On", "ON"}) {
+    if (s == t) return true;
+  }
+  for (const char* f : {"false", "False", "FALSE", "no", "No", "NO", "off", "Off", "OFF"}) {
+    if (s == f) return false;
+  }
+  fail(path + ": expected true or false, got \"" + s + "\"" + lineOf(n));
+}
+
+/// Reads the keys of one map node into the visited fields; keys not visited are errors.
+class Reader {
+ public:
+  /// node == nullptr: the section is absent, nothing to read.
+  Reader(const Node* node, std::string path) : node_(node), path_(std::move(path)) {
+    if (node_ != nullptr && !node_->isMap()) {
+      fail((path_.empty() ? std::string("the document") : path_) +
+           ": expected a map of 'key: value' entries, got " + describe(*node_) + lineOf(*node_));
+    }
+  }
+
+  template <typename T>
+  void operator()(const char* key, T& field, const char* /*comment*/) {
+    allowed_.emplace_back(key);
+    if (const Node* n = find(key)) read(*n, join(path_, key), &field);
+  }
+
+  template <typename F>
+  void section(const char* key, const char* /*comment*/, F&& visit) {
+    allowed_.emplace_back(key);
+    Reader sub(find(key), join(path_, key));
+    visit(sub);
+    sub.rejectUnknownKeys();
+  }
+
+  /// Call after visiting: fails on the first key (in key order) that no field claimed.
+  void rejectUnknownKeys() const {
+    if (node_ == nullptr) return;
+    for (const auto& [key_node, value] : node_->asMap()) {
+      (void)value;
+      const std::string key = key_node.as<std::string>();
+      if (std::find(allowed_.begin(), allowed_.end(), key) != allowed_.end()) continue;
+      std::string message = "unknown key " + join(path_, key) + lineOf(key_node);
+      const std::vector<std::string> hints = suggestions(key, allowed_);
+      if (hints.size() == 1) {
+        message += "; did you mean " + hints[0] + "?";
+      } else if (!hints.empty()) {
+        message += "; did you mean one of " + listed(hints) + "?";
+      } else {
+        message += "; allowed keys" + (path_.empty() ? std::string() : " in " + path_) + ": " +
+                   listed(allowed_);
+      }
+      fail(message);
+    }
+  }
+
+ private:
+  [[nodiscard]] const Node* find(const char* key) const {
+    if (node_ == nullptr) return nullptr;
+    for (const auto& [key_node, value] : node_->asMap()) {
+      if (key_node.isScalar() && key_node.as<std::string>() == key) return &value;
+    }
+    return nullptr;
+  }
+
+  static void read(const Node& n, const std::string& path, double* out) {
+    *out = toFloating<double>(n, path);
+  }
+  static void read(const Node& n, const std::string& path, float* out) {
+    *out = toFloating<float>(n, path);
+  }
+  static void read(const Node& n, const std::string& path, int* out) {
+    *out = toInteger<int>(n, path);
+  }
+  static void read(const Node& n, const std::string& path, uint64_t* out) {
+    *out = toInteger<uint64_t>(n, path);
+  }
+  static void read(const Node& n, const std::string& path, bool* out) { *out = toBool(n, path); }
+  static void read(const Node& n, const std::string& path, frontend::HypothesisSource* out) {
+    readEnum(n, path, out, frontend::parseHypothesisSource);
+  }
+  static void read(const Node& n, const std::string& path, frontend::SadKernel* out) {
+    readEnum(n, path, out, parseKernel);
+  }
+  static void read(const Node& n, const std::string& path, landmarks::Policy* out) {
+    readEnum(n, path, out, landmarks::parsePolicy);
+  }
+  template <typename E>
+  static void readEnum(const Node& n,
+                       const std::string& path,
+                       E* out,
+                       Status (*parse)(const std::string&, E*)) {
+    const std::string s = scalarText(n, path, "a name");
+    if (Status st = parse(s, out); !st) fail(path + ": " + st.message() + lineOf(n));
+  }
+
+  const Node* node_;
+  std::string path_;
+  std::vector<std::string> allowed_;
+};
+
+// ---- YAML syntax errors ------------------------------------------------------------------------
+
+/// MRPT 2.5 hands libfyaml's syntax errors to libfyaml's default diagnostic stream, C's stderr,
+/// and returns the tree parsed up to the error as if nothing happened; redirecting stderr during
+/// the parse is the only way to learn about the error (same technique as sim/world_io.cpp). The
+/// swap is process-wide: another thread printing with C stdio meanwhile would be captured too.
+class StderrCapture {
+ public:
+  StderrCapture() {
+#if defined(__GLIBC__)
+    stream_ = open_memstream(&buffer_, &size_);
+    if (stream_ != nullptr) {
+      saved_ = stderr;
+      stderr = stream_;
+    }
+#endif
+  }
+  ~StderrCapture() { text(); }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+
+  /// Restores stderr (once) and returns what was written meanwhile.
+  std::string text() {
+#if defined(__GLIBC__)
+    if (stream_ != nullptr) {
+      stderr = saved_;
+      std::fclose(stream_);
+      stream_ = nullptr;
+      captured_.assign(buffer_, size_);
+      std::free(buffer_);
+      buffer_ = nullptr;
+    }
+#endif
+    return captured_;
+  }
+
+ private:
+  std::FILE* stream_ = nullptr;
+  std::FILE* saved_ = nullptr;
+  char* buffer_ = nullptr;
+  size_t size_ = 0;
+  std::string captured_;
+};
+
+/// "<memory-@0x...>:2:1: error: flow sequence without a closing bracket" ->
+/// "line 2, column 1: flow sequence without a closing bracket"; empty if no error.
+std::string syntaxError(const std::string& diagnostics) {
+  std::istringstream lines(diagnostics);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const size_t at = line.find(": error: ");
+    if (at == std::string::npos) continue;
+    const std::string what = line.substr(at + std::strlen(": error: "));
+    const std::string where = line.substr(0, at);
+    const size_t c = where.rfind(':');
+    const size_t l = c == std::string::npos || c == 0 ? std::string::npos : where.rfind(':', c - 1);
+    if (l == std::string::npos) return what;
+    return "line " + where.substr(l + 1, c - l - 1) + ", column " + where.substr(c + 1) + ": " +
+           what;
+  }
+  return {};
+}
+
+/// The "Message:" line of an MRPT exception (its what() carries a call stack too).
+std::string mrptMessage(const std::exception& e) {
+  std::string s = e.what();
+  const size_t at = s.find("Message:");
+  if (at != std::string::npos) s = s.substr(at + std::strlen("Message:"));
+  s = s.substr(0, s.find('\n'));
+  const size_t first = s.find_first_not_of(" \t");
+  return first == std::string::npos ? std::string("unknown error") : s.substr(first);
+}
+
+/// Parses YAML text; on failure returns the reason.
+std::optional<std::string> parseYaml(const std::string& text, Yaml* doc) {
+  std::string exception_message;
+  StderrCapture capture;
+  try {
+    *doc = Yaml::FromText(text);
+  } catch (const std::exception& e) {
+    exception_message = mrptMessage(e);
+    // MRPT 2.5 rejects "key:" with nothing after it (e.g. a section whose keys are all
+    // commented out) with an obscure message and no position.
+    if (exception_message.find("empty scalar") != std::string::npos) {
+      exception_message =
+          "a key has no value; write a value, or remove the key (or the section, if all its keys "
+          "are commented out)";
+    }
+  }
+  const std::string syntax = syntaxError(capture.text());
+  // The syntax error is the cause; MRPT's exception, if any, is a consequence of it.
+  if (!syntax.empty()) return syntax;
+  if (!exception_message.empty()) return exception_message;
+  return std::nullopt;
+}
+
+}  // namespace
+
+Status PipelineConfig::validate() const {
+  if (Status s = frontend.validate(); !s) return s;   // already "frontend.harris: ..."
+  if (Status s = landmarks.validate(); !s) return s;  // already "landmarks.<key> = ..."
+  if (Status s = mapping.validate(); !s) {
+    if (s.message().rfind("mapping.", 0) == 0) return s;
+    return Status::error("mapping: " + s.message());
+  }
+  return Status::ok();
+}
+
+Status parseConfigYaml(const std::string& yaml_text, PipelineConfig* config) {
+  if (config == nullptr) return Status::error("parseConfigYaml: null config");
+  Yaml doc;
+  if (const auto error = parseYaml(yaml_text, &doc))
+    return Status::error("YAML syntax error: " + *error);
+  PipelineConfig parsed = *config;
+  try {
+    const Node& root = doc.node();
+    // An empty document (or one holding only comments) overrides nothing.
+    Reader reader(root.isNullNode() ? nullptr : &root, "");
+    visitConfig(parsed, reader);
+    reader.rejectUnknownKeys();
+  } catch (const ConfigError& e) {
+    return Status::error(e.what());
+  } catch (const std::exception& e) {
+    // MRPT accessors throw on node kinds the readers did not expect.
+    return Status::error("cannot read config: " + mrptMessage(e));
+  }
+  if (Status s = parsed.validate(); !s) return s;
+  *config = parsed;
+  return Status::ok();
+}
+
+Status loadConfigFile(const std::string& path, PipelineConfig* config) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path file(path);
+  if (!fs::exists(file, ec)) return Status::error(path + ": cannot read config file: no such file");
+  if (fs::is_directory(file, ec))
+    return Status::error(path + ": cannot read config file: it is a directory");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return Status::error(path + ": cannot read config file: " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Status::error(path + ": cannot read config file: read error");
+  const Status s = parseConfigYaml(text.str(), config);
+  if (!s) return Status::error(path + ": " + s.message());
+  return Status::ok();
+}
+
+std::string toYaml(const PipelineConfig& config) {
+  Writer writer;
+  visitConfig(config, writer);
+  return "# TwoCam pipeline configuration (twocam run --config FILE); layout and errors: "
+         "docs/config.md.\n"
+         "# Every key is optional: absent keys keep their defaults. Unknown keys are errors.\n"
+         "# Units in brackets; [-] is dimensionless.\n" +
+         writer.text();
+}
+
+}  // namespace twocam::pipeline
