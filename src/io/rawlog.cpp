@@ -1,10 +1,13 @@
 #include "io/rawlog.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <deque>
 #include <filesystem>
+#include <limits>
+#include <optional>
 #include <sstream>
 
 #include <mrpt/img/CImage.h>
@@ -37,8 +40,21 @@ constexpr const char* kEndPrefix = "twocam rawlog end";
 mrpt::Clock::time_point toMrptTime(int64_t t_ns) {
   return mrpt::Clock::time_point(std::chrono::duration_cast<mrpt::Clock::duration>(std::chrono::nanoseconds(t_ns)));
 }
+/// MRPT time stamps count 100 ns ticks since 1601-01-01 (Windows FILETIME). TwoCam's writer
+/// stores t_ns directly as ticks (simulated runs start at 1 s; EuRoC's UNIX-epoch stamps land
+/// in the 17th century), and those come back unchanged. Logs recorded by MRPT tools with a real
+/// clock (mrpt::Clock::now()) hold ticks whose nanosecond count overflows int64 (any date after
+/// 1893): they are returned as UNIX-epoch ns instead. Nonsense stamps (corrupt logs) saturate
+/// rather than overflow.
 int64_t fromMrptTime(mrpt::Clock::time_point t) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
+  constexpr int64_t kNsPerTick = 100;
+  constexpr int64_t kMaxDirectTicks = std::numeric_limits<int64_t>::max() / kNsPerTick;
+  constexpr int64_t kUnixEpochTicks = 116'444'736'000'000'000LL;  // 1970-01-01 on MRPT's clock
+  const int64_t ticks = t.time_since_epoch().count();
+  if (ticks < -kMaxDirectTicks) return std::numeric_limits<int64_t>::min();
+  if (ticks <= kMaxDirectTicks) return ticks * kNsPerTick;
+  if (ticks - kUnixEpochTicks > kMaxDirectTicks) return std::numeric_limits<int64_t>::max();
+  return (ticks - kUnixEpochTicks) * kNsPerTick;
 }
 
 mrpt::poses::CPose3D toMrptPose(const Eigen::Isometry3d& T) {
@@ -263,8 +279,18 @@ struct RawlogReader::Impl {
   bool is_twocam = false;
   bool saw_end_marker = false;
   bool rig_known = false;
+  /// Frames come from the stereo observations with this label (the first one seen); others
+  /// (a second stereo camera) are skipped.
+  std::string stereo_label;
   std::deque<mrpt::obs::CObservation::Ptr> pending;
   bool eof = false;
+  /// Sensory-frame logs: odometry accumulated from CActionRobotMovement2D increments (MRPT's
+  /// convention: the action collection before a sensory frame is the motion since the
+  /// previous one). Set once the log has had a movement action.
+  std::optional<mrpt::poses::CPose2D> action_odometry;
+  /// A read error met after a complete frame (while looking for observations that belong to
+  /// it): the frame is delivered and the error reported by the following next().
+  std::optional<std::string> deferred_error;
 
   /// Reads the next observation (flattening sensory frames and odometry actions).
   /// Returns nullptr at the end; throws on corrupt data.
@@ -287,11 +313,30 @@ struct RawlogReader::Impl {
         }
         pending.push_back(obs);
       } else if (auto sf = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(obj)) {
-        for (const auto& o : *sf) pending.push_back(o);
+        for (const auto& o : *sf) {
+          // The accumulated action odometry goes in front of each stereo observation of the
+          // frame, with its time stamp, so that an explicit CObservationOdometry with the same
+          // stamp (before or after it) takes precedence.
+          if (action_odometry && std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
+            auto odo = std::make_shared<mrpt::obs::CObservationOdometry>();
+            odo->sensorLabel = "ACTIONS";
+            odo->timestamp = o->timestamp;
+            odo->odometry = *action_odometry;
+            pending.push_back(odo);
+          }
+          if (o) pending.push_back(o);
+        }
       } else if (auto acts = std::dynamic_pointer_cast<mrpt::obs::CActionCollection>(obj)) {
-        // Sensory-frame logs carry odometry as increments; TwoCam works with accumulated
-        // odometry, which those logs do not store, so actions are skipped here.
-        (void)acts;
+        // Sensory-frame logs carry wheel odometry as increments; TwoCam works with accumulated
+        // odometry, so the increments are composed from the first one on (odometry frame =
+        // body pose before the first increment).
+        if (auto mv = acts->getBestMovementEstimation()) {
+          mrpt::poses::CPose2D increment = mv->rawOdometryIncrementReading;
+          if (mv->estimationMethod != mrpt::obs::CActionRobotMovement2D::emOdometry && mv->poseChange) {
+            mv->poseChange->getMean(increment);
+          }
+          action_odometry = action_odometry.value_or(mrpt::poses::CPose2D()) + increment;
+        }
       }
     }
     auto o = pending.front();
@@ -299,20 +344,23 @@ struct RawlogReader::Impl {
     return o;
   }
 
-  Status loadImage(const mrpt::img::CImage& img, ImageU8* out) const {
+  /// Loads one image of a stereo observation as 8-bit grey. Errors name the image.
+  Status loadImage(const mrpt::img::CImage& img, const char* side, ImageU8* out) const {
     cv::Mat grey;
     if (img.isExternallyStored()) {
       std::string file = img.getExternalStorageFile();
       if (!fs::path(file).is_absolute()) file = images_dir + "/" + file;
+      std::error_code ec;
+      if (!fs::is_regular_file(file, ec)) return Status::error(std::string(side) + " image file '" + file + "' is missing");
       grey = cv::imread(file, cv::IMREAD_GRAYSCALE);
-      if (grey.empty()) return Status::error("cannot read external image '" + file + "'");
+      if (grey.empty()) return Status::error("cannot read " + std::string(side) + " image file '" + file + "'");
     } else {
       const cv::Mat& m = img.asCvMatRef();
-      if (m.empty()) return Status::error("stereo observation without image data");
+      if (m.empty()) return Status::error(std::string(side) + " image has no data");
+      if (m.depth() != CV_8U) return Status::error(std::string(side) + " image is not 8-bit (only 8-bit grey or colour)");
       if (m.channels() == 3) cv::cvtColor(m, grey, cv::COLOR_BGR2GRAY);
       else if (m.channels() == 1) grey = m;
-      else return Status::error("unsupported image channel count");
-      if (grey.depth() != CV_8U) return Status::error("unsupported image depth (only 8-bit)");
+      else return Status::error(std::string(side) + " image has " + std::to_string(m.channels()) + " channels (only 1 or 3)");
     }
     *out = ImageU8(grey.cols, grey.rows);
     for (int v = 0; v < grey.rows; ++v) std::memcpy(out->row(v), grey.ptr<uint8_t>(v), static_cast<size_t>(grey.cols));
@@ -348,6 +396,49 @@ StereoRig rigFromObservation(const mrpt::obs::CObservationStereoImages& obs) {
   rig.T_b_cl = fromMrptPose(mrpt::poses::CPose3D(obs.cameraPose));
   return rig;
 }
+
+/// One line of an exception's text. MRPT's exceptions nest ("Original exception:") and carry
+/// banners and back traces; the innermost "Message:" line says what went wrong.
+std::string shortWhat(const std::exception& e) {
+  std::istringstream in(e.what());
+  std::string line;
+  std::string message;
+  while (std::getline(in, line)) {
+    const size_t at = line.find("Message:");
+    if (at != std::string::npos) message = line.substr(at + 8);
+  }
+  if (message.empty()) {
+    message = e.what();
+    message = message.substr(0, message.find('\n'));
+  }
+  message.erase(0, message.find_first_not_of(' '));
+  constexpr size_t kMaxChars = 240;
+  return message.size() > kMaxChars ? message.substr(0, kMaxChars) + "..." : message;
+}
+
+/// MRPT's convention for rectified stereo images (CObservationStereoImages::areImagesRectified):
+/// all distortion parameters zero. TwoCam's frontend needs rectified rows.
+Status checkRectified(const mrpt::obs::CObservationStereoImages& obs) {
+  for (const auto* cam : {&obs.leftCamera, &obs.rightCamera}) {
+    for (double k : cam->dist) {
+      if (k != 0.0) {
+        return Status::error(std::string("stereo images are not rectified (") + (cam == &obs.leftCamera ? "left" : "right") +
+                             " camera has non-zero distortion; MRPT marks rectified pairs with zero distortion)");
+      }
+    }
+  }
+  return Status::ok();
+}
+
+/// Whether a later observation's calibration equals the log's rig (first observation). They are
+/// stored doubles and a calibration does not change within a log, so only rounding is allowed.
+bool sameCalibration(const StereoRig& a, const StereoRig& b) {
+  constexpr double kRelTol = 1e-9;
+  auto near = [&](double x, double y) { return std::abs(x - y) <= kRelTol * std::max({1.0, std::abs(x), std::abs(y)}); };
+  return a.width_px == b.width_px && a.height_px == b.height_px && near(a.fx_px, b.fx_px) && near(a.fy_px, b.fy_px) &&
+         near(a.cx_px, b.cx_px) && near(a.cy_px, b.cy_px) && near(a.baseline_m, b.baseline_m) &&
+         a.T_b_cl.isApprox(b.T_b_cl, kRelTol);
+}
 }  // namespace
 
 Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>* out) {
@@ -359,23 +450,30 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
   if (!r->impl_->stream.open(path)) return Status::error("cannot open log '" + path + "'");
   r->impl_->images_dir = imagesDirectoryFor(path);
   // Peek until the first stereo observation to learn the rig.
+  int observations = 0;
   try {
     std::deque<mrpt::obs::CObservation::Ptr> seen;
     while (true) {
       auto o = r->impl_->read();
       if (!o) break;
+      ++observations;
       seen.push_back(o);
       if (auto s = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
+        if (Status st = checkRectified(*s); !st) return Status::error("log '" + path + "': " + st.message());
         r->rig_ = rigFromObservation(*s);
+        r->impl_->stereo_label = s->sensorLabel;
         r->impl_->rig_known = true;
         break;
       }
     }
     for (auto it = seen.rbegin(); it != seen.rend(); ++it) r->impl_->pending.push_front(*it);
   } catch (const std::exception& e) {
-    return Status::error("cannot read log '" + path + "': corrupt or not an MRPT rawlog (" + std::string(e.what()).substr(0, 200) + ")");
+    return Status::error("cannot read log '" + path + "': corrupt, truncated or not an MRPT rawlog (" + shortWhat(e) + ")");
   }
-  if (!r->impl_->rig_known) return Status::error("log '" + path + "' has no stereo images (no CObservationStereoImages)");
+  if (!r->impl_->rig_known) {
+    return Status::error("log '" + path + "' has no stereo images (no CObservationStereoImages among its " +
+                         std::to_string(observations) + " observations)");
+  }
   if (Status st = r->rig_.validate(); !st) return Status::error("log '" + path + "': bad stereo calibration: " + st.message());
   *out = std::move(r);
   return Status::ok();
@@ -383,6 +481,17 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
 
 bool RawlogReader::next(LogFrame* frame, Status* status) {
   *status = Status::ok();
+  auto fail = [&](const std::string& message) {
+    *status = Status::error("log '" + impl_->path + "', frame " + std::to_string(index_) + ": " + message);
+    return false;
+  };
+  if (impl_->deferred_error) {
+    const std::string message = *impl_->deferred_error;
+    impl_->deferred_error.reset();
+    impl_->eof = true;
+    impl_->pending.clear();
+    return fail(message);
+  }
   try {
     // Find the next stereo observation; odometry and ground truth with its time stamp that
     // come right after it (or right before) belong to the frame.
@@ -392,11 +501,12 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       auto o = impl_->read();
       if (!o) {
         if (impl_->is_twocam && !impl_->saw_end_marker)
-          *status = Status::error("log '" + impl_->path + "' ends without its end marker: truncated?");
+          *status = Status::error("log '" + impl_->path + "' ends without its end marker after " + std::to_string(index_) +
+                                  " frames: truncated?");
         return false;
       }
       if (auto s = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
-        stereo = s;
+        if (s->sensorLabel == impl_->stereo_label) stereo = s;
       } else if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
         odo_before = OdometrySample{fromMrptTime(od->timestamp), Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
       }
@@ -405,30 +515,32 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
     frame->index = index_;
     frame->stereo.t_ns = fromMrptTime(stereo->timestamp);
     if (odo_before && odo_before->t_ns == frame->stereo.t_ns) frame->odometry = odo_before;
-    if (Status st = impl_->loadImage(stereo->imageLeft, &frame->stereo.left); !st) {
-      *status = st;
-      return false;
-    }
-    if (!stereo->hasImageRight) {
-      *status = Status::error("stereo observation " + std::to_string(index_) + " has no right image");
-      return false;
-    }
-    if (Status st = impl_->loadImage(stereo->imageRight, &frame->stereo.right); !st) {
-      *status = st;
-      return false;
-    }
-    if (frame->stereo.left.width != rig_.width_px || frame->stereo.left.height != rig_.height_px ||
-        frame->stereo.right.width != rig_.width_px || frame->stereo.right.height != rig_.height_px) {
+    if (Status st = checkRectified(*stereo); !st) return fail(st.message());
+    if (!sameCalibration(rigFromObservation(*stereo), rig_)) return fail("stereo calibration differs from the first frame's");
+    if (!stereo->hasImageRight) return fail("stereo observation has no right image");
+    if (Status st = impl_->loadImage(stereo->imageLeft, "left", &frame->stereo.left); !st) return fail(st.message());
+    if (Status st = impl_->loadImage(stereo->imageRight, "right", &frame->stereo.right); !st) return fail(st.message());
+    const ImageU8& l = frame->stereo.left;
+    const ImageU8& r = frame->stereo.right;
+    const auto& lc = stereo->leftCamera;
+    const auto& rc = stereo->rightCamera;
+    if (l.width != static_cast<int>(lc.ncols) || l.height != static_cast<int>(lc.nrows) || r.width != static_cast<int>(rc.ncols) ||
+        r.height != static_cast<int>(rc.nrows) || l.width != r.width || l.height != r.height) {
       std::ostringstream os;
-      os << "frame " << index_ << ": images " << frame->stereo.left.width << "x" << frame->stereo.left.height << " / "
-         << frame->stereo.right.width << "x" << frame->stereo.right.height << " do not match the calibration "
-         << rig_.width_px << "x" << rig_.height_px;
-      *status = Status::error(os.str());
-      return false;
+      os << "images " << l.width << "x" << l.height << " (left) / " << r.width << "x" << r.height
+         << " (right) do not match the observation's calibration " << lc.ncols << "x" << lc.nrows << " / " << rc.ncols << "x"
+         << rc.nrows << " (both images must have the calibrated size)";
+      return fail(os.str());
     }
     // Following observations with the same time stamp.
     while (true) {
-      auto o = impl_->read();
+      mrpt::obs::CObservation::Ptr o;
+      try {
+        o = impl_->read();
+      } catch (const std::exception& e) {
+        impl_->deferred_error = "corrupt or truncated log: " + shortWhat(e);
+        break;
+      }
       if (!o) break;
       if (fromMrptTime(o->timestamp) != frame->stereo.t_ns || std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
         impl_->pending.push_front(o);
@@ -451,9 +563,9 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       }
     }
   } catch (const std::exception& e) {
-    *status = Status::error("log '" + impl_->path + "' is corrupt or truncated at frame " + std::to_string(index_) + ": " +
-                            std::string(e.what()).substr(0, 300));
-    return false;
+    impl_->eof = true;
+    impl_->pending.clear();
+    return fail("corrupt or truncated log: " + shortWhat(e));
   }
   ++index_;
   return true;

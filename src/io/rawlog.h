@@ -92,7 +92,14 @@ struct LogFrame {
 
 /// Reads stereo frames (with odometry and ground truth when present) from an MRPT rawlog:
 /// TwoCam's own logs and any observations-only or sensory-frame rawlog with
-/// CObservationStereoImages. Odometry belongs to a frame when it has the frame's time stamp.
+/// CObservationStereoImages (docs/recorded_data.md). Odometry belongs to a frame when it has the
+/// frame's time stamp: a CObservationOdometry (any label), or in sensory-frame logs the
+/// CActionRobotMovement2D increments composed up to the frame (an odometry observation with the
+/// frame's stamp wins). Frames come from the first stereo label met; the images must be
+/// rectified (zero distortion, MRPT's convention), of the observation's calibrated size, and the
+/// calibration must not change within the log. Errors name the log file and the frame.
+/// Time stamps: TwoCam's writer stores t_ns as MRPT clock ticks unchanged; real-clock MRPT
+/// stamps (dates after 1893) come back as UNIX-epoch nanoseconds.
 class RawlogReader {
  public:
   /// Opens the log; reads up to the first stereo observation to learn the rig.
