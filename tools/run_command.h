@@ -4,13 +4,24 @@
 
 namespace twocam::tools {
 
-/// `twocam run LOG -o OUTDIR [--policy NAME]`: frontend and landmark database over a log.
+/// `twocam run LOG -o OUTDIR [--config CFG.yaml] [--policy NAME]`: frontend, landmark database
+/// and occupancy map over a log; outputs and their formats in docs/run.md.
 struct RunArgs {
   std::string log_path;
   std::string output_dir;
-  std::string policy = "consistency";
-  std::string source = "sad";
+  /// YAML config (pipeline/config.h); defaults when absent.
+  std::optional<std::string> config_path;
+  /// Override the config's landmarks.policy / frontend.source when given.
+  std::optional<std::string> policy;
+  std::optional<std::string> source;
+  /// World file for the map evaluation; default: "<log stem>.world.yaml" beside the log when it
+  /// exists (written by `twocam simulate`).
+  std::optional<std::string> world_path;
   std::optional<int> max_frames;
+  /// Frame (counted from 0) drawn in sample_frame/; default: the middle of the log.
+  std::optional<int> sample_frame;
+  /// Do not call scripts/plot_run.py at the end.
+  bool no_pictures = false;
   bool quiet = false;
 };
 

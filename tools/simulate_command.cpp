@@ -35,6 +35,11 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
+std::string worldSidecarPath(const std::string& log_path) {
+  const fs::path p(log_path);
+  return ((p.has_parent_path() ? p.parent_path() : fs::path(".")) / (p.stem().string() + ".world.yaml")).string();
+}
+
 /// Top-down outline of every shape as polylines (x, y) for the trajectory plot: vertical
 /// planes as segments, horizontal planes and boxes as rectangles, cylinders as polygons.
 std::string worldOutlineCsv(const sim::World& world) {
@@ -155,6 +160,24 @@ int runSimulate(const SimulateArgs& args) {
   const double loop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (Status st = writer->finish(); !st) return fail(st.message());
   const double fps = n / loop_s;
+  // The world file travels with the log ("<stem>.world.yaml") so that `twocam run` can measure
+  // its map against the world's geometry (phantom voxels) without being told where it came from.
+  {
+    const std::string sidecar = worldSidecarPath(args.output_path);
+    std::ifstream in(args.world_path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    const std::string tmp = sidecar + ".partial";
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f << "# Copy of " << args.world_path << " written by twocam simulate beside " << out.filename().string()
+      << " (seed " << world.seed << "); texture paths relative to the original file.\n"
+      << text.str();
+    f.close();
+    std::error_code rename_ec;
+    if (!in || !f) return fail("cannot write '" + tmp + "'");
+    fs::rename(tmp, sidecar, rename_ec);
+    if (rename_ec) return fail("cannot write '" + sidecar + "': " + rename_ec.message());
+  }
 
   std::error_code ec;
   fs::create_directories(preview_dir, ec);
@@ -184,6 +207,7 @@ int runSimulate(const SimulateArgs& args) {
               writer->imagesDir().c_str());
   std::printf("%.1f frames/s including writing (%.2f s for %d frames; setup %.2f s; render %.1f ms, GT depth %.1f ms median)\n", fps,
               loop_s, n, setup_s, median(render_ms), median(depth_ms));
+  std::printf("world geometry for evaluation: %s\n", worldSidecarPath(args.output_path).c_str());
   std::printf("preview: %s/contact_sheet.png, %s/trajectory.csv\n", preview_dir.c_str(), preview_dir.c_str());
   return 0;
 }

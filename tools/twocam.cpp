@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "import_euroc_command.h"
 #include "simulate_command.h"
 #include "stereo_eval_command.h"
 #include "run_command.h"
@@ -44,14 +45,27 @@ int main(int argc, char** argv) {
   stereo_eval->add_option("--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
 
   twocam::tools::RunArgs run;
-  int run_frames = 0;
-  auto* run_cmd = app.add_subcommand("run", "Run the frontend and the landmark database over a log; write metrics.json and landmarks.csv");
-  run_cmd->add_option("log", run.log_path, "Input rawlog (TwoCam's own or any MRPT rawlog with stereo images and odometry)")->required();
-  run_cmd->add_option("-o,--output", run.output_dir, "Output folder")->required();
-  run_cmd->add_option("--policy", run.policy, "Landmark confidence policy: consistency (default), wta-lrc, seen-count, culling, inlier-ratio");
-  run_cmd->add_option("--source", run.source, "Hypothesis source: sad (default) or pairing (Paper A)");
+  int run_frames = 0, run_sample = 0;
+  std::string run_policy, run_source, run_config, run_world;
+  auto* run_cmd = app.add_subcommand("run", "Run frontend, landmark database and occupancy map over a log; write metrics, landmarks, trajectories, map.bt and pictures");
+  run_cmd->add_option("log", run.log_path, "Input rawlog (TwoCam's own or any MRPT rawlog with stereo images; odometry when present)")->required();
+  run_cmd->add_option("-o,--output", run.output_dir, "Output folder (created; files in it are replaced only by complete new ones)")->required();
+  auto* run_config_opt = run_cmd->add_option("--config", run_config, "YAML config (docs/config.md; defaults: configs/default.yaml)");
+  auto* run_policy_opt = run_cmd->add_option("--policy", run_policy, "Landmark confidence policy, overrides the config: consistency (default), wta-lrc, seen-count, culling, inlier-ratio");
+  auto* run_source_opt = run_cmd->add_option("--source", run_source, "Hypothesis source, overrides the config: sad (default) or pairing (Paper A)");
+  auto* run_world_opt = run_cmd->add_option("--world", run_world, "World file for the map evaluation (default: <log stem>.world.yaml beside the log, written by simulate)");
   auto* run_frames_opt = run_cmd->add_option("--frames", run_frames, "Process at most this many frames");
+  auto* run_sample_opt = run_cmd->add_option("--sample-frame", run_sample, "Frame drawn in sample_frame/ (default: the middle of the log)");
+  run_cmd->add_flag("--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
   run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");
+
+  twocam::tools::ImportEurocArgs ie;
+  int ie_max_frames = 0;
+  auto* import_euroc = app.add_subcommand("import-euroc", "Rectify a EuRoC MAV stereo sequence (mav0/cam0, cam1) into a TwoCam rawlog (no odometry)");
+  import_euroc->add_option("dir", ie.input_dir, "EuRoC sequence folder containing mav0/ (or mav0 itself)")->required();
+  import_euroc->add_option("-o,--output", ie.output_path, "Output rawlog path (rectified images go to <stem>_Images/)")->required();
+  auto* ie_max_frames_opt = import_euroc->add_option("--max-frames", ie_max_frames, "Import at most this many stereo pairs (the first ones)");
+  import_euroc->add_flag("-q,--quiet", ie.quiet, "No progress bar");
 
   try {
     app.parse(argc, argv);
@@ -65,8 +79,17 @@ int main(int argc, char** argv) {
       if (noise_opt->count() > 0) sim.odometry_noise_scale = sim_noise_scale;
       return twocam::tools::runSimulate(sim);
     }
+    if (import_euroc->parsed()) {
+      if (ie_max_frames_opt->count() > 0) ie.max_frames = ie_max_frames;
+      return twocam::tools::runImportEuroc(ie);
+    }
     if (run_cmd->parsed()) {
       if (run_frames_opt->count() > 0) run.max_frames = run_frames;
+      if (run_sample_opt->count() > 0) run.sample_frame = run_sample;
+      if (run_config_opt->count() > 0) run.config_path = run_config;
+      if (run_policy_opt->count() > 0) run.policy = run_policy;
+      if (run_source_opt->count() > 0) run.source = run_source;
+      if (run_world_opt->count() > 0) run.world_path = run_world;
       return twocam::tools::runRun(run);
     }
     if (stereo_eval->parsed()) {

@@ -217,7 +217,7 @@ Status rewriteLog(const std::string& in,
   return writer->finish();
 }
 
-TEST(TwocamCli, RunSkipsBadOdometryFramesAndRefusesALogWithoutOdometry) {
+TEST(TwocamCli, RunSkipsBadOdometryFramesAndRunsTheFrontendOnlyWithoutOdometry) {
   const std::string dir = test::makeTempDir("cli_run_bad_input");
   ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/ok.rawlog --frames 8 --seed 3 -q")
                 .exit_code,
@@ -235,7 +235,7 @@ TEST(TwocamCli, RunSkipsBadOdometryFramesAndRefusesALogWithoutOdometry) {
                   if (f->ground_truth) f->ground_truth->t_ns = f->stereo.t_ns;
                 }
               }).isOk());
-  const RunResult bad = run("run " + dir + "/bad.rawlog -o " + dir + "/out_bad -q");
+  const RunResult bad = run("run " + dir + "/bad.rawlog -o " + dir + "/out_bad -q --no-pictures");
   EXPECT_EQ(bad.exit_code, 0) << bad.output;
   size_t warnings = 0;
   for (size_t at = bad.error.find("warning: skipping"); at != std::string::npos;
@@ -249,17 +249,117 @@ TEST(TwocamCli, RunSkipsBadOdometryFramesAndRefusesALogWithoutOdometry) {
   ASSERT_TRUE(rewriteLog(dir + "/ok.rawlog", dir + "/no_odo.rawlog", [](io::LogFrame* f) {
                 f->odometry.reset();
               }).isOk());
-  const RunResult no_odo = run("run " + dir + "/no_odo.rawlog -o " + dir + "/out_no_odo -q");
-  EXPECT_NE(no_odo.exit_code, 0);
-  EXPECT_NE(no_odo.error.find("no odometry"), std::string::npos) << no_odo.error;
-  EXPECT_FALSE(fs::exists(dir + "/out_no_odo/metrics.json"));
+  // A log without odometry (EuRoC): the frontend runs, no landmarks, no map, and it says so.
+  const RunResult no_odo = run("run " + dir + "/no_odo.rawlog -o " + dir + "/out_no_odo -q --no-pictures");
+  EXPECT_EQ(no_odo.exit_code, 0) << no_odo.error;
+  EXPECT_NE(no_odo.error.find("has no odometry"), std::string::npos) << no_odo.error;
+  const std::string no_odo_json = readFile(dir + "/out_no_odo/metrics.json");
+  EXPECT_NE(no_odo_json.find("\"odometry\": false"), std::string::npos) << no_odo_json;
+  EXPECT_NE(no_odo_json.find("\"confirmed\": 0"), std::string::npos) << no_odo_json;
+  EXPECT_FALSE(fs::exists(dir + "/out_no_odo/map.bt"));
+  EXPECT_TRUE(fs::exists(dir + "/out_no_odo/sample_frame/hypotheses.csv"));
 
-  const RunResult missing = run("run " + dir + "/nope.rawlog -o " + dir + "/out_missing -q");
+  const RunResult missing = run("run " + dir + "/nope.rawlog -o " + dir + "/out_missing -q --no-pictures");
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_NE(missing.error.find("nope.rawlog"), std::string::npos) << missing.error;
-  const RunResult policy = run("run " + dir + "/ok.rawlog -o " + dir + "/out_p --policy best -q");
+  const RunResult policy = run("run " + dir + "/ok.rawlog -o " + dir + "/out_p --policy best -q --no-pictures");
   EXPECT_NE(policy.exit_code, 0);
   EXPECT_NE(policy.error.find("best"), std::string::npos) << policy.error;
+}
+
+TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
+  const std::string dir = test::makeTempDir("cli_run_outputs");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 24 --seed 5 -q").exit_code, 0);
+  ASSERT_TRUE(fs::exists(dir + "/s.world.yaml"));
+  const RunResult a = run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures");
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  for (const char* f : {"metrics.json", "landmarks.csv", "trajectory_odom.tum", "trajectory_gt.tum", "map.bt",
+                        "config_used.yaml", "timings.csv", "timing.json", "map_voxels.csv", "map_eval_voxels.csv",
+                        "world_outline.csv", "sample_frame/left.png", "sample_frame/right.png",
+                        "sample_frame/hypotheses.csv"}) {
+    EXPECT_TRUE(fs::exists(dir + "/a/" + f)) << f;
+  }
+  const std::string metrics = readFile(dir + "/a/metrics.json");
+  for (const char* key : {"\"octomap\"", "\"phantom_fraction\"", "\"ate_rmse_m\"", "\"precision\"", "\"seed\": 1",
+                          "\"odometry\": true"}) {
+    EXPECT_NE(metrics.find(key), std::string::npos) << key << "\n" << metrics;
+  }
+  // TUM: one pose per processed frame after the comment lines.
+  std::istringstream tum(readFile(dir + "/a/trajectory_odom.tum"));
+  int poses = 0;
+  for (std::string line; std::getline(tum, line);) poses += !line.empty() && line[0] != '#';
+  EXPECT_EQ(poses, 24);
+
+  // Same log, same config: identical metrics.json, landmarks.csv and map; the recorded config
+  // reproduces the run.
+  const RunResult b = run("run " + dir + "/s.rawlog -o " + dir + "/b -q --no-pictures --config " + dir + "/a/config_used.yaml");
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  EXPECT_EQ(readFile(dir + "/a/metrics.json"), readFile(dir + "/b/metrics.json"));
+  EXPECT_EQ(readFile(dir + "/a/landmarks.csv"), readFile(dir + "/b/landmarks.csv"));
+  EXPECT_EQ(readFile(dir + "/a/map.bt"), readFile(dir + "/b/map.bt"));
+
+  // A config changes the run: a coarser map has fewer voxels; --policy overrides the file.
+  {
+    std::ofstream cfg(dir + "/coarse.yaml");
+    cfg << "mapping:\n  resolution_m: 0.2\nlandmarks:\n  policy: seen-count\n";
+  }
+  const RunResult c = run("run " + dir + "/s.rawlog -o " + dir + "/c -q --no-pictures --config " + dir +
+                          "/coarse.yaml --policy wta-lrc");
+  ASSERT_EQ(c.exit_code, 0) << c.output;
+  EXPECT_NE(readFile(dir + "/c/metrics.json").find("\"resolution_m\": 0.2"), std::string::npos);
+  EXPECT_NE(readFile(dir + "/c/metrics.json").find("\"policy\": \"wta-lrc\""), std::string::npos);
+  EXPECT_NE(readFile(dir + "/c/config_used.yaml").find("resolution_m: 0.2"), std::string::npos);
+
+  // Bad input: clear error, exit 1, and the earlier results in the folder are untouched.
+  const std::string before = readFile(dir + "/a/metrics.json");
+  const std::string before_map = readFile(dir + "/a/map.bt");
+  {
+    std::ofstream cfg(dir + "/typo.yaml");
+    cfg << "mapping:\n  resolutoin_m: 0.1\n";
+  }
+  const RunResult typo = run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures --config " + dir + "/typo.yaml");
+  EXPECT_EQ(typo.exit_code, 1);
+  EXPECT_NE(typo.error.find("resolutoin_m"), std::string::npos) << typo.error;
+  // Truncated log: the first half of the gzip stream.
+  {
+    const std::string full = readFile(dir + "/s.rawlog");
+    std::ofstream cut(dir + "/cut.rawlog", std::ios::binary);
+    cut << full.substr(0, full.size() / 2);
+  }
+  fs::copy(dir + "/s_Images", dir + "/cut_Images", fs::copy_options::recursive);
+  const RunResult cut = run("run " + dir + "/cut.rawlog -o " + dir + "/a -q --no-pictures");
+  EXPECT_EQ(cut.exit_code, 1) << cut.output;
+  EXPECT_NE(cut.error.find("cut.rawlog"), std::string::npos) << cut.error;
+  // Corrupt log: random bytes.
+  {
+    std::ofstream junk(dir + "/junk.rawlog", std::ios::binary);
+    std::mt19937 rng(11);
+    for (int i = 0; i < 4096; ++i) junk.put(static_cast<char>(rng() & 0xff));
+  }
+  const RunResult junk = run("run " + dir + "/junk.rawlog -o " + dir + "/a -q --no-pictures");
+  EXPECT_EQ(junk.exit_code, 1) << junk.output;
+  EXPECT_NE(junk.error.find("junk.rawlog"), std::string::npos) << junk.error;
+  // Output "folder" that is a file.
+  { std::ofstream f(dir + "/plainfile"); f << "x"; }
+  const RunResult unwritable = run("run " + dir + "/s.rawlog -o " + dir + "/plainfile -q --no-pictures");
+  EXPECT_EQ(unwritable.exit_code, 1);
+  EXPECT_NE(unwritable.error.find("plainfile"), std::string::npos) << unwritable.error;
+  EXPECT_EQ(readFile(dir + "/plainfile"), "x");
+  EXPECT_EQ(readFile(dir + "/a/metrics.json"), before);
+  EXPECT_EQ(readFile(dir + "/a/map.bt"), before_map);
+  EXPECT_FALSE(fs::exists(dir + "/a/metrics.json.partial"));
+}
+
+TEST(TwocamCli, RunDrawsPictures) {
+  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "no /usr/bin/python3: pictures need Debian's python3-matplotlib";
+  const std::string dir = test::makeTempDir("cli_run_pictures");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 12 --seed 5 -q").exit_code, 0);
+  const RunResult r = run("run " + dir + "/s.rawlog -o " + dir + "/out -q");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  if (r.error.find("No module named") != std::string::npos) GTEST_SKIP() << "matplotlib missing: " << r.error;
+  for (const char* f : {"map_topdown.png", "confidence_histogram.png", "timings.png", "sample_frame.png"}) {
+    EXPECT_TRUE(fs::exists(dir + "/out/pictures/" + f)) << f << "\n" << r.output;
+  }
 }
 
 // ---- stereo-eval ----------------------------------------------------------------------------

@@ -1,0 +1,71 @@
+#include "pipeline/pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "landmarks/landmark_model.h"
+
+namespace twocam::pipeline {
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
+  frontend::SalientSadOptions& sad = config->frontend.sad;
+  sad.max_disparity_px = std::min(sad.max_disparity_px, rig.width_px - sad.window_width_px);
+  config->landmarks.max_disparity_px = sad.max_disparity_px;
+  config->landmarks.min_disparity_px = sad.min_disparity_px;
+  return config->validate();
+}
+
+Pipeline::Pipeline(const StereoRig& rig, const PipelineConfig& config)
+    : rig_(rig), frontend_(config.frontend), db_(rig, config.landmarks), mapper_(config.mapping) {}
+
+Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out) {
+  out->mapped_points_w.clear();
+  out->mapped_slots.clear();
+  out->times = StageTimes{};
+  out->failure = FrameOutput::Failure::kNone;
+  const auto t0 = std::chrono::steady_clock::now();
+  const Status s = frontend_.process(stereo, &hyps_);
+  out->times.frontend_ms = msSince(t0);
+  if (!s) out->failure = FrameOutput::Failure::kFrontend;
+  return s;
+}
+
+Status Pipeline::process(int32_t frame, const StereoFrame& stereo, const Pose2& odom_pose, FrameOutput* out) {
+  if (Status s = processFrontendOnly(stereo, out); !s) return s;
+  const auto t1 = std::chrono::steady_clock::now();
+  if (Status s = db_.update(frame, stereo.t_ns, odom_pose, hyps_, &report_); !s) {
+    out->failure = FrameOutput::Failure::kLandmarks;
+    return s;
+  }
+  out->times.landmarks_ms = msSince(t1);
+
+  // Map: one ray per confirmed landmark observed in this frame (a landmark is listed once even
+  // when several hypotheses of its corner pointed at it).
+  const auto t2 = std::chrono::steady_clock::now();
+  const std::vector<landmarks::Landmark>& slots = db_.landmarks();
+  if (slot_mapped_.size() < slots.size()) slot_mapped_.resize(slots.size(), 0);
+  for (int32_t slot : report_.hypothesis_landmark) {
+    if (slot < 0) continue;
+    const landmarks::Landmark& l = slots[static_cast<size_t>(slot)];
+    if (l.state != landmarks::LandmarkState::kConfirmed || slot_mapped_[static_cast<size_t>(slot)]) continue;
+    slot_mapped_[static_cast<size_t>(slot)] = 1;
+    out->mapped_points_w.push_back(l.p_w);
+    out->mapped_slots.push_back(static_cast<uint32_t>(slot));
+  }
+  for (int32_t slot : report_.hypothesis_landmark) {
+    if (slot >= 0) slot_mapped_[static_cast<size_t>(slot)] = 0;
+  }
+  out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
+  mapper_.insertFrame(out->camera_origin_w, out->mapped_points_w);
+  out->times.mapping_ms = msSince(t2);
+  return Status::ok();
+}
+
+}  // namespace twocam::pipeline

@@ -1,0 +1,77 @@
+#pragma once
+/// The per-frame pipeline of `twocam run` and of the pipeline benchmark: frontend (Harris + 1-D
+/// SAD hypotheses) -> landmark database -> occupancy map of the confirmed landmarks seen in the
+/// frame. State only; each stage's maths live in its module.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "common/features.h"
+#include "common/frames.h"
+#include "common/rig.h"
+#include "common/status.h"
+#include "frontend/frontend.h"
+#include "landmarks/landmark_database.h"
+#include "mapping/occupancy_mapper.h"
+#include "pipeline/config.h"
+
+namespace twocam::pipeline {
+
+/// Wall time of each stage of one frame [ms] (single thread).
+struct StageTimes {
+  double frontend_ms = 0.0;
+  double landmarks_ms = 0.0;
+  double mapping_ms = 0.0;
+  [[nodiscard]] double total_ms() const { return frontend_ms + landmarks_ms + mapping_ms; }
+};
+
+/// What one frame produced. Refers to the pipeline's state: valid until the next call.
+struct FrameOutput {
+  /// Which stage refused the frame when process() returned an error.
+  enum class Failure { kNone, kFrontend, kLandmarks };
+  Failure failure = Failure::kNone;
+  StageTimes times;
+  /// Confirmed landmarks observed in this frame (odometry world frame) [m]: the map's rays end
+  /// there; and the left camera centre they start from [m].
+  std::vector<Eigen::Vector3d> mapped_points_w;
+  /// Database slot of each mapped point (read the landmark through database().landmarks()).
+  std::vector<uint32_t> mapped_slots;
+  Eigen::Vector3d camera_origin_w = Eigen::Vector3d::Zero();
+};
+
+class Pipeline {
+ public:
+  /// `config` must be valid and its disparity range must fit the rig (see clampToRig).
+  Pipeline(const StereoRig& rig, const PipelineConfig& config);
+
+  /// One stereo frame with its odometry pose. An error from the landmark database (NaN pose,
+  /// time going backwards) leaves the database and map unchanged: the caller may skip the frame
+  /// and go on. A frontend error (image of the wrong size) is returned as well.
+  Status process(int32_t frame, const StereoFrame& stereo, const Pose2& odom_pose, FrameOutput* out);
+
+  /// Frontend only (a log without odometry): corners and hypotheses, no landmarks, no map.
+  Status processFrontendOnly(const StereoFrame& stereo, FrameOutput* out);
+
+  [[nodiscard]] const frontend::Frontend& frontend() const { return frontend_; }
+  [[nodiscard]] const landmarks::LandmarkDatabase& database() const { return db_; }
+  [[nodiscard]] const mapping::OccupancyMapper& mapper() const { return mapper_; }
+  [[nodiscard]] const StereoHypotheses& hypotheses() const { return hyps_; }
+  [[nodiscard]] const landmarks::FrameReport& report() const { return report_; }
+
+ private:
+  StereoRig rig_;
+  frontend::Frontend frontend_;
+  landmarks::LandmarkDatabase db_;
+  mapping::OccupancyMapper mapper_;
+  StereoHypotheses hyps_;
+  landmarks::FrameReport report_;
+  std::vector<uint8_t> slot_mapped_;
+};
+
+/// Fits a config to a rig: the SAD disparity range is clamped so that the window stays inside
+/// the image, and the landmark database's range follows the frontend's. Then validates.
+Status clampToRig(const StereoRig& rig, PipelineConfig* config);
+
+}  // namespace twocam::pipeline

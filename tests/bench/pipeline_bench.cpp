@@ -1,0 +1,116 @@
+/// Whole per-frame pipeline of `twocam run` (frontend + landmark database + occupancy map,
+/// pipeline/pipeline.h) on a recorded simulated log, one thread, against the pipeline issue's
+/// target of 5 ms median per 640x480 frame.
+///
+/// The log is read into memory first (decoding is not part of the pipeline, METRICS.md); each
+/// benchmark iteration runs a fresh pipeline over every frame and records each frame's stage
+/// times. Counters: per-frame median / p95 of the total and median of each stage [ms].
+///
+///   TWOCAM_BENCH_LOG=out/office.rawlog build/bench/tests/bench/pipeline_bench
+///
+/// Without TWOCAM_BENCH_LOG the benchmark looks for out/office.rawlog (the main command's log)
+/// under the current folder and skips with a message when there is none.
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/rawlog.h"
+#include "pipeline/config.h"
+#include "pipeline/pipeline.h"
+
+namespace twocam {
+namespace {
+
+struct RecordedLog {
+  std::string path;
+  std::string error;
+  StereoRig rig;
+  std::vector<io::LogFrame> frames;
+};
+
+const RecordedLog& recordedLog() {
+  static const RecordedLog log = [] {
+    RecordedLog l;
+    const char* env = std::getenv("TWOCAM_BENCH_LOG");
+    l.path = env ? env : "out/office.rawlog";
+    std::error_code ec;
+    if (!std::filesystem::exists(l.path, ec)) {
+      l.error = l.path + " not found: set TWOCAM_BENCH_LOG to a rawlog with odometry (e.g. from scripts/run_demo.sh)";
+      return l;
+    }
+    std::unique_ptr<io::RawlogReader> reader;
+    if (Status s = io::RawlogReader::open(l.path, &reader); !s) {
+      l.error = s.message();
+      return l;
+    }
+    l.rig = reader->rig();
+    io::LogFrame f;
+    Status st;
+    while (reader->next(&f, &st)) {
+      if (f.odometry) l.frames.push_back(f);
+      f.ground_truth.reset();
+    }
+    for (io::LogFrame& fr : l.frames) fr.ground_truth.reset();  // not needed: keep memory down
+    if (!st) l.error = st.message();
+    if (l.frames.empty() && l.error.empty()) l.error = l.path + ": no frames with odometry";
+    return l;
+  }();
+  return log;
+}
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
+  const RecordedLog& log = recordedLog();
+  if (!log.error.empty()) {
+    state.SkipWithError(log.error.c_str());
+    return;
+  }
+  pipeline::PipelineConfig config;
+  if (Status s = landmarks::parsePolicy(policy, &config.landmarks.policy); !s) {
+    state.SkipWithError(s.message().c_str());
+    return;
+  }
+  if (Status s = pipeline::clampToRig(log.rig, &config); !s) {
+    state.SkipWithError(s.message().c_str());
+    return;
+  }
+  std::vector<double> total, fe, lm, mp;
+  for (auto _ : state) {
+    pipeline::Pipeline pipe(log.rig, config);
+    pipeline::FrameOutput out;
+    for (const io::LogFrame& f : log.frames) {
+      if (!pipe.process(f.index, f.stereo, f.odometry->pose, &out)) continue;
+      total.push_back(out.times.total_ms());
+      fe.push_back(out.times.frontend_ms);
+      lm.push_back(out.times.landmarks_ms);
+      mp.push_back(out.times.mapping_ms);
+    }
+    benchmark::DoNotOptimize(pipe.database().numConfirmed());
+  }
+  state.counters["frames"] = static_cast<double>(log.frames.size());
+  state.counters["total_median_ms"] = quantile(total, 0.5);
+  state.counters["total_p95_ms"] = quantile(total, 0.95);
+  state.counters["frontend_median_ms"] = quantile(fe, 0.5);
+  state.counters["landmarks_median_ms"] = quantile(lm, 0.5);
+  state.counters["mapping_median_ms"] = quantile(mp, 0.5);
+  state.counters["width_px"] = log.rig.width_px;
+  state.counters["height_px"] = log.rig.height_px;
+}
+
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency, "consistency")->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, wta_lrc, "wta-lrc")->Unit(benchmark::kMillisecond)->Iterations(3);
+
+}  // namespace
+}  // namespace twocam
