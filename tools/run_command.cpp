@@ -256,6 +256,7 @@ int runRun(const RunArgs& args) {
   std::vector<double> t_frontend, t_landmarks, t_mapping, t_total;
   std::vector<io::TimedPose> odom_track, gt_track;
   std::vector<Eigen::Isometry3d> T_true_odom_by_frame;  // per frame index, evaluation map only
+  int64_t sum_corners = 0, sum_points = 0, sum_hypotheses = 0;
   std::ostringstream timings_csv;
   timings_csv << std::setprecision(6) << "frame,frontend_ms,landmarks_ms,mapping_ms,total_ms,corners,hypotheses,candidates,confirmed\n";
   SampleFrame sample;
@@ -288,6 +289,9 @@ int runRun(const RunArgs& args) {
       continue;
     }
     ++processed;
+    sum_corners += static_cast<int64_t>(pipe.frontend().corners().size());
+    sum_points += static_cast<int64_t>(pipe.hypotheses().points.size());
+    sum_hypotheses += static_cast<int64_t>(pipe.hypotheses().hypotheses.size());
     // Ground truth counts only with a depth image of the frame's size (a log may carry poses
     // alone; a truncated log may end inside a frame's ground truth).
     const GroundTruthFrame* gt = frame.ground_truth && frame.ground_truth->depth_left.width == frame.stereo.left.width &&
@@ -391,6 +395,9 @@ int runRun(const RunArgs& args) {
        << ",\n  \"frames\": " << frames << ",\n  \"frames_processed\": " << processed
        << ",\n  \"frames_skipped\": " << skipped << ",\n  \"odometry\": " << (odometry_mode ? "true" : "false")
        << ",\n  \"ground_truth\": " << (has_gt ? "true" : "false") << ",\n";
+  const auto per_frame = [&](int64_t n) { return num(static_cast<double>(n) / processed); };
+  json << "  \"detections\": {\"corners_per_frame\": " << per_frame(sum_corners) << ", \"salient_points_per_frame\": "
+       << per_frame(sum_points) << ", \"hypotheses_per_frame\": " << per_frame(sum_hypotheses) << "},\n";
   const mapping::MappingStats& ms = pipe.mapper().stats();
   json << "  \"mapping\": {\"resolution_m\": " << num(config.mapping.resolution_m) << ", \"occupied_voxels\": " << voxels.size()
        << ", \"points_inserted\": " << ms.points_inserted << ", \"points_beyond_range\": " << ms.points_beyond_range << "}";
@@ -477,8 +484,10 @@ int runRun(const RunArgs& args) {
   } else if (odometry_mode) {
     std::cout << "map: " << voxels.size() << " occupied voxels at " << config.mapping.resolution_m << " m" << std::endl;
   }
-  std::cout << "wrote " << (out / "metrics.json").string() << (odometry_mode ? ", map.bt" : "")
-            << ", landmarks.csv, trajectories, timings, config_used.yaml, sample_frame/" << std::endl;
+  std::cout << "wrote " << (out / "metrics.json").string()
+            << (odometry_mode ? ", map.bt, landmarks.csv, trajectory_odom.tum" : ", landmarks.csv (empty)")
+            << (has_gt ? ", trajectory_gt.tum" : "") << ", timings.csv, config_used.yaml"
+            << (sample.taken ? ", sample_frame/" : "") << std::endl;
   if (!args.no_pictures) {
     std::cout << "pictures:" << std::endl;
     drawPictures(args.output_dir);
