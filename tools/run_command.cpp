@@ -257,6 +257,7 @@ int runRun(const RunArgs& args) {
   std::vector<io::TimedPose> odom_track, gt_track;
   std::vector<Eigen::Isometry3d> T_true_odom_by_frame;  // per frame index, evaluation map only
   int64_t sum_corners = 0, sum_points = 0, sum_hypotheses = 0;
+  int frames_outside_map = 0;
   std::ostringstream timings_csv;
   timings_csv << std::setprecision(6) << "frame,frontend_ms,landmarks_ms,mapping_ms,total_ms,corners,hypotheses,candidates,confirmed\n";
   SampleFrame sample;
@@ -289,6 +290,10 @@ int runRun(const RunArgs& args) {
       continue;
     }
     ++processed;
+    if (fo.outside_map && frames_outside_map++ == 0) {
+      warn("frame " + std::to_string(frame.index) + ": the camera is outside the map's extent (" +
+           std::to_string(fo.camera_origin_w.norm()) + " m from the origin); such frames are not mapped");
+    }
     sum_corners += static_cast<int64_t>(pipe.frontend().corners().size());
     sum_points += static_cast<int64_t>(pipe.hypotheses().points.size());
     sum_hypotheses += static_cast<int64_t>(pipe.hypotheses().hypotheses.size());
@@ -320,7 +325,13 @@ int runRun(const RunArgs& args) {
             const bool known = anchor >= 0 && static_cast<size_t>(anchor) < T_true_odom_by_frame.size();
             pts.push_back((known ? T_true_odom_by_frame[static_cast<size_t>(anchor)] : T_true_odom) * fo.mapped_points_w[i]);
           }
-          eval_mapper->insertFrame(T_true_odom * fo.camera_origin_w, pts);
+          const Eigen::Vector3d o = T_true_odom * fo.camera_origin_w;
+          octomap::OcTreeKey key;
+          if (eval_mapper->tree().coordToKeyChecked(octomap::point3d(static_cast<float>(o.x()), static_cast<float>(o.y()),
+                                                                     static_cast<float>(o.z())),
+                                                    key)) {
+            eval_mapper->insertFrame(o, pts);
+          }
         }
       } else {
         has_gt = false;
@@ -400,7 +411,8 @@ int runRun(const RunArgs& args) {
        << per_frame(sum_points) << ", \"hypotheses_per_frame\": " << per_frame(sum_hypotheses) << "},\n";
   const mapping::MappingStats& ms = pipe.mapper().stats();
   json << "  \"mapping\": {\"resolution_m\": " << num(config.mapping.resolution_m) << ", \"occupied_voxels\": " << voxels.size()
-       << ", \"points_inserted\": " << ms.points_inserted << ", \"points_beyond_range\": " << ms.points_beyond_range << "}";
+       << ", \"points_inserted\": " << ms.points_inserted << ", \"points_beyond_range\": " << ms.points_beyond_range
+       << ", \"frames_outside_map\": " << frames_outside_map << "}";
   if (map_eval) {
     json << ",\n  \"octomap\": {\"resolution_m\": " << num(config.mapping.resolution_m) << ", \"occupied\": " << map_eval->occupied
          << ", \"phantom\": " << map_eval->phantom << ", \"phantom_fraction\": " << num(map_eval->phantom_fraction)

@@ -28,6 +28,7 @@ Pipeline::Pipeline(const StereoRig& rig, const PipelineConfig& config)
 Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out) {
   out->mapped_points_w.clear();
   out->mapped_slots.clear();
+  out->outside_map = false;
   out->times = StageTimes{};
   out->failure = FrameOutput::Failure::kNone;
   const auto t0 = std::chrono::steady_clock::now();
@@ -63,7 +64,11 @@ Status Pipeline::process(int32_t frame, const StereoFrame& stereo, const Pose2& 
     if (slot >= 0) slot_mapped_[static_cast<size_t>(slot)] = 0;
   }
   out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
-  mapper_.insertFrame(out->camera_origin_w, out->mapped_points_w);
+  octomap::OcTreeKey origin_key;
+  const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()), static_cast<float>(out->camera_origin_w.y()),
+                                static_cast<float>(out->camera_origin_w.z()));
+  out->outside_map = !mapper_.tree().coordToKeyChecked(origin, origin_key);
+  if (!out->outside_map) mapper_.insertFrame(out->camera_origin_w, out->mapped_points_w);
   out->times.mapping_ms = msSince(t2);
   return Status::ok();
 }

@@ -39,6 +39,9 @@ struct FrameOutput {
   /// Database slot of each mapped point (read the landmark through database().landmarks()).
   std::vector<uint32_t> mapped_slots;
   Eigen::Vector3d camera_origin_w = Eigen::Vector3d::Zero();
+  /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
+  /// was not mapped (landmarks were still updated).
+  bool outside_map = false;
 };
 
 class Pipeline {

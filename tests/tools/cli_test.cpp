@@ -249,6 +249,16 @@ TEST(TwocamCli, RunSkipsBadOdometryFramesAndRunsTheFrontendOnlyWithoutOdometry) 
   ASSERT_TRUE(rewriteLog(dir + "/ok.rawlog", dir + "/no_odo.rawlog", [](io::LogFrame* f) {
                 f->odometry.reset();
               }).isOk());
+  // Odometry far beyond the map's extent (+-1.6 km at 5 cm): landmarks go on, the frame is not
+  // mapped, the run warns and completes.
+  ASSERT_TRUE(rewriteLog(dir + "/ok.rawlog", dir + "/far.rawlog", [](io::LogFrame* f) {
+                if (f->odometry) f->odometry->pose.x_m += 5000.0;
+              }).isOk());
+  const RunResult far = run("run " + dir + "/far.rawlog -o " + dir + "/out_far -q --no-pictures");
+  EXPECT_EQ(far.exit_code, 0) << far.output;
+  EXPECT_NE(far.error.find("outside the map"), std::string::npos) << far.error;
+  EXPECT_NE(readFile(dir + "/out_far/metrics.json").find("\"frames_outside_map\": 8"), std::string::npos);
+
   // A log without odometry (EuRoC): the frontend runs, no landmarks, no map, and it says so.
   const RunResult no_odo = run("run " + dir + "/no_odo.rawlog -o " + dir + "/out_no_odo -q --no-pictures");
   EXPECT_EQ(no_odo.exit_code, 0) << no_odo.error;
