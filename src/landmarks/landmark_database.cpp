@@ -248,6 +248,11 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       const int r1 = std::min(grid_rows_ - 1, static_cast<int>((p.v + p.gate_v) / kGridCellPx));
       int32_t best = -1;
       float best_d2 = gate;
+      // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
+      // than one the association is ambiguous and is not made (see below).
+      const bool count_points = pass == 0 && options_.policy == Policy::kConsistency && options_.unambiguous_confirmed_hits;
+      uint32_t first_point = UINT32_MAX;
+      bool ambiguous = false;
       for (int r = r0; r <= r1; ++r) {
         for (int c = c0; c <= c1; ++c) {
           const int cell = r * grid_cols_ + c;
@@ -259,6 +264,13 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
             const float dv = static_cast<float>(corner.v_px) - p.v;
             const float dd = h.d_px - p.d;
             const float d2 = du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d;
+            if (count_points && d2 <= gate) {
+              if (first_point == UINT32_MAX) {
+                first_point = h.point_index;
+              } else if (h.point_index != first_point) {
+                ambiguous = true;
+              }
+            }
             if (d2 > best_d2) continue;
             const int32_t owner = hyp_claim_[j];
             if (owner >= 0) {
@@ -271,7 +283,11 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
           }
         }
       }
-      if (best < 0) continue;
+      // A confirmed landmark whose gate holds several corners cannot tell which one is its own
+      // (after a long absence odometry drift has widened the gate): taking the nearest would
+      // let it live on a neighbouring corner while its own is confirmed again as a duplicate.
+      // It counts as unseen; if that lasts, it is retired and its corner re-confirmed afresh.
+      if (best < 0 || ambiguous) continue;
       const int32_t previous = hyp_claim_[best];
       if (previous >= 0) pred_hyp[previous] = -1;
       hyp_claim_[best] = static_cast<int32_t>(i);

@@ -156,6 +156,11 @@ struct LandmarkOptions {
   /// slides along the occluding contour as the robot moves) and METRICS.md leaves it without
   /// ground truth.
   bool seed_depth_edges = false;
+  /// consistency policy: a confirmed landmark whose association gate holds more than one
+  /// corner is not associated in that frame (it counts as unseen). After a long absence its gate,
+  /// widened by odometry drift, holds several corners; taking the nearest lets the landmark live
+  /// on a neighbour while its own corner is confirmed again (docs/landmarks.md, "Duplicates").
+  bool unambiguous_confirmed_hits = true;
   /// Huber loss scale of the refinement residuals, in units of their sigma [-].
   double refine_huber = 1.0;
 

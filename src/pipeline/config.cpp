@@ -58,7 +58,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 13,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 43,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 44,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -181,6 +181,8 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(seed_depth_edges,
                     "seed candidates from shifted-window (depth edge) matches [bool]");
   TWOCAM_CONFIG_KEY(refine_huber, "Huber loss scale of the refinement [sigma], > 0");
+  TWOCAM_CONFIG_KEY(unambiguous_confirmed_hits,
+                    "consistency: a confirmed landmark with several corners in its gate is not associated [bool]");
 }
 
 template <typename O, typename V>
