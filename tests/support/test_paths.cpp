@@ -1,5 +1,7 @@
 #include "support/test_paths.h"
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 
@@ -19,8 +21,26 @@ std::optional<std::string> sharedDataDir() {
   return std::nullopt;
 }
 
+namespace {
+
+/// The process's folder of test files, removed when the process ends unless
+/// TWOCAM_KEEP_TEST_FILES is set (to look at them after a failure).
+struct ProcessTempRoot {
+  fs::path path = fs::temp_directory_path() / ("twocam_test_" + std::to_string(static_cast<long>(getpid())));
+  ~ProcessTempRoot() {
+    if (std::getenv("TWOCAM_KEEP_TEST_FILES") != nullptr) return;
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+}  // namespace
+
 std::string makeTempDir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("twocam_test_" + name);
+  // One folder per process: two test runs at once (a Release and a sanitizer build, two
+  // checkouts) must not write into each other's files.
+  static ProcessTempRoot root;
+  const fs::path p = root.path / name;
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();

@@ -12,7 +12,8 @@ std::string sourceDir();
 /// ../shared/data next to the project, or nullopt when a user's clone lacks it.
 std::optional<std::string> sharedDataDir();
 
-/// A fresh, empty temporary folder for one test (removed and recreated).
+/// A fresh, empty temporary folder for one test (removed and recreated), inside a folder of
+/// this process that is removed at exit (kept when TWOCAM_KEEP_TEST_FILES is set).
 std::string makeTempDir(const std::string& name);
 
 }  // namespace twocam::test
