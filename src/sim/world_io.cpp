@@ -1,5 +1,7 @@
 #include "sim/world_io.h"
 
+#include "yaml/yaml_text.h"
+
 #include <mrpt/containers/yaml.h>
 
 #include <algorithm>
@@ -23,6 +25,9 @@ namespace twocam::sim {
 namespace {
 
 namespace fs = std::filesystem;
+using yaml::editDistance;
+using yaml::mrptMessage;
+using yaml::parseYaml;
 using Yaml = mrpt::containers::yaml;
 using Node = Yaml::node_t;
 
@@ -55,22 +60,6 @@ std::string describe(const Node& n) {
   if (n.isSequence()) return "a sequence";
   if (n.isMap()) return "a map";
   return "'" + n.as<std::string>() + "'";
-}
-
-/// Levenshtein distance, for "did you mean" hints.
-size_t editDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t substitute = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      diagonal = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitute});
-    }
-  }
-  return row[b.size()];
 }
 
 // ---- scalars -------------------------------------------------------------------------------
@@ -547,101 +536,6 @@ void parseDocument(const Node& root, const std::string& base_dir, World* w) {
     for (size_t i = 0; i < seq->size(); ++i)
       w->shapes.push_back(parseShape((*seq)[i], i, base_dir));
   }
-}
-
-// ---- YAML syntax errors ----------------------------------------------------------------------
-
-/// The "Message:" line of an MRPT exception (its what() also holds a call stack).
-std::string mrptMessage(const std::exception& e) {
-  std::string s = e.what();
-  // MRPT's wording for "key:" with nothing after it.
-  if (s.find("Unexpected empty scalar") != std::string::npos) {
-    return "a key has an empty value; give it a value or remove the key";
-  }
-  const size_t at = s.find("Message:");
-  if (at != std::string::npos) s = s.substr(at + std::strlen("Message:"));
-  s = s.substr(0, s.find('\n'));
-  const size_t first = s.find_first_not_of(" \t");
-  return first == std::string::npos ? std::string("unknown error") : s.substr(first);
-}
-
-/// MRPT 2.5 hands libfyaml's syntax errors to libfyaml's default diagnostic stream, C's
-/// stderr, and returns the tree parsed up to the error as if nothing happened. Redirecting
-/// stderr for the duration of the parse is the only way to learn about the error. The swap
-/// is process-wide: another thread printing with C stdio meanwhile would be captured too
-/// (std::cerr is not affected), so load worlds before starting threads.
-class StderrCapture {
- public:
-  StderrCapture() {
-#if defined(__GLIBC__)
-    stream_ = open_memstream(&buffer_, &size_);
-    if (stream_ != nullptr) {
-      saved_ = stderr;
-      stderr = stream_;
-    }
-#endif
-  }
-  ~StderrCapture() { text(); }
-  StderrCapture(const StderrCapture&) = delete;
-  StderrCapture& operator=(const StderrCapture&) = delete;
-
-  /// Restores stderr (once) and returns what was written meanwhile.
-  std::string text() {
-#if defined(__GLIBC__)
-    if (stream_ != nullptr) {
-      stderr = saved_;
-      std::fclose(stream_);
-      stream_ = nullptr;
-      captured_.assign(buffer_, size_);
-      std::free(buffer_);
-      buffer_ = nullptr;
-    }
-#endif
-    return captured_;
-  }
-
- private:
-  std::FILE* stream_ = nullptr;
-  std::FILE* saved_ = nullptr;
-  char* buffer_ = nullptr;
-  size_t size_ = 0;
-  std::string captured_;
-};
-
-/// Turns libfyaml's "<memory-@0x...>:2:1: error: flow sequence without a closing bracket"
-/// into "line 2, column 1: flow sequence without a closing bracket"; empty if no error.
-std::string syntaxError(const std::string& diagnostics) {
-  std::istringstream lines(diagnostics);
-  std::string line;
-  while (std::getline(lines, line)) {
-    const size_t at = line.find(": error: ");
-    if (at == std::string::npos) continue;
-    const std::string what = line.substr(at + std::strlen(": error: "));
-    // The location ends in ":<line>:<column>".
-    const std::string where = line.substr(0, at);
-    const size_t c = where.rfind(':');
-    const size_t l = c == std::string::npos || c == 0 ? std::string::npos : where.rfind(':', c - 1);
-    if (l == std::string::npos) return what;
-    return "line " + where.substr(l + 1, c - l - 1) + ", column " + where.substr(c + 1) + ": " +
-           what;
-  }
-  return {};
-}
-
-/// Parses YAML text; on failure returns the reason (syntax or MRPT exception).
-std::optional<std::string> parseYaml(const std::string& text, Yaml* doc) {
-  std::string exception_message;
-  StderrCapture capture;
-  try {
-    *doc = Yaml::FromText(text);
-  } catch (const std::exception& e) {
-    exception_message = mrptMessage(e);
-  }
-  const std::string syntax = syntaxError(capture.text());
-  // The syntax error is the cause; MRPT's exception, if any, is a consequence of it.
-  if (!syntax.empty()) return syntax;
-  if (!exception_message.empty()) return exception_message;
-  return std::nullopt;
 }
 
 Status parseImpl(const std::string& yaml_text,

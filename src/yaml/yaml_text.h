@@ -1,0 +1,32 @@
+#pragma once
+/// Parsing YAML text with MRPT 2.5 (mrpt::containers::yaml) so that errors read well: syntax
+/// errors with line and column, MRPT exceptions cut to their message, and "did you mean" help
+/// for unknown keys. The schemas (which keys exist, their types) stay with their readers:
+/// sim/world_io.cpp for world files, pipeline/config.cpp for the run config.
+
+#include <cstddef>
+#include <exception>
+#include <optional>
+#include <string>
+
+#include <mrpt/containers/yaml.h>
+
+namespace twocam::yaml {
+
+/// Parses `text` into *doc. Returns nullopt on success, else the reason, e.g.
+/// "line 2, column 1: flow sequence without a closing bracket".
+///
+/// MRPT 2.5 hands libfyaml's syntax errors to C's stderr and returns the tree parsed up to the
+/// error as if nothing happened; stderr is redirected for the duration of the parse to learn
+/// about it. The swap is process-wide: another thread printing with C stdio meanwhile would be
+/// captured too (std::cerr is not affected), so parse YAML before starting threads.
+std::optional<std::string> parseYaml(const std::string& text, mrpt::containers::yaml* doc);
+
+/// The "Message:" line of an MRPT exception (its what() also holds a call stack); MRPT's
+/// wording for "key:" with nothing after it is replaced by a plain explanation.
+std::string mrptMessage(const std::exception& e);
+
+/// Levenshtein distance between two keys, for "did you mean" hints.
+size_t editDistance(const std::string& a, const std::string& b);
+
+}  // namespace twocam::yaml
