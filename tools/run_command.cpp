@@ -307,7 +307,7 @@ int runRun(const RunArgs& args) {
       odom_track.push_back({frame.stereo.t_ns, toIsometry(frame.odometry->pose)});
       if (gt && has_gt) {
         gt_track.push_back({frame.stereo.t_ns, gt->T_w_b});
-        if (Status es = evaluator.addFrame(pipe.hypotheses(), pipe.report(), pipe.database(), gt->depth_left); !es) {
+        if (Status es = evaluator.addFrame(pipe.hypotheses(), pipe.report(), pipe.database(), gt->depth_left, gt->T_w_b); !es) {
           return fail(es.message());
         }
         if (eval_mapper) {

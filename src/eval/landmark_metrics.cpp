@@ -36,10 +36,47 @@ std::string num(double v) {
 
 }  // namespace
 
+int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double radius_m) {
+  // Greedy in the given order: a point within radius_m of a kept representative joins it. A hash
+  // grid of cell radius_m finds the candidates in the 27 neighbouring cells.
+  const auto cell = [&](const Eigen::Vector3f& p) {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius_m)), static_cast<int>(std::floor(p.y() / radius_m)),
+                           static_cast<int>(std::floor(p.z() / radius_m)));
+  };
+  const auto key = [](const Eigen::Vector3i& c) {
+    return (static_cast<uint64_t>(static_cast<uint32_t>(c.x())) * 73856093u) ^
+           (static_cast<uint64_t>(static_cast<uint32_t>(c.y())) * 19349663u) ^
+           (static_cast<uint64_t>(static_cast<uint32_t>(c.z())) * 83492791u);
+  };
+  std::unordered_multimap<uint64_t, Eigen::Vector3f> reps;
+  const double r2 = radius_m * radius_m;
+  int64_t count = 0;
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3i c = cell(p);
+    bool found = false;
+    for (int dx = -1; dx <= 1 && !found; ++dx) {
+      for (int dy = -1; dy <= 1 && !found; ++dy) {
+        for (int dz = -1; dz <= 1 && !found; ++dz) {
+          const auto range = reps.equal_range(key(c + Eigen::Vector3i(dx, dy, dz)));
+          for (auto it = range.first; it != range.second && !found; ++it) {
+            found = (it->second - p).squaredNorm() <= r2;
+          }
+        }
+      }
+    }
+    if (!found) {
+      reps.emplace(key(c), p);
+      ++count;
+    }
+  }
+  return count;
+}
+
 Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
                                    const landmarks::FrameReport& report,
                                    const landmarks::LandmarkDatabase& db,
-                                   const ImageF32& gt_depth) {
+                                   const ImageF32& gt_depth,
+                                   const Eigen::Isometry3d& T_w_b_true) {
   if (Status s = disparityFromDepth(gt_depth, rig_, &gt_); !s) return s;
   const auto gt_at = [&](int u, int v, float* d, float* z) {
     if (u < 0 || v < 0 || u >= gt_.d_px.width || v >= gt_.d_px.height || !gt_.valid(u, v)) return false;
@@ -82,6 +119,10 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
     const double fx_b = rig_.fx_px * rig_.baseline_m;
     t.d_near = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(fx_b / z_min);
     t.d_far = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(fx_b / z_max);
+    if (t.valid) {
+      const Eigen::Vector3d ray((l.anchor.u_px - rig_.cx_px) / rig_.fx_px, (l.anchor.v_px - rig_.cy_px) / rig_.fy_px, 1.0);
+      t.p_true_w = (T_w_b_true * rig_.T_b_cl * (ray * static_cast<double>(t.z_gt))).cast<float>();
+    }
     anchors_[l.id] = t;
   }
   return Status::ok();
@@ -130,6 +171,7 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
   m.frontend = frontend_.metrics();
   std::vector<double> errors;
   std::vector<double> frames_to_confirm;
+  std::vector<Eigen::Vector3f> correct_points;
   std::vector<CalibrationRow> rows;
   for (double t : kCalibrationThresholds) rows.push_back({t, 0, 0, 0.0});
   for (const landmarks::Landmark& l : db.landmarks()) {
@@ -166,8 +208,10 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
       continue;
     }
     m.correct_confirmed += v;
+    if (v == 1) correct_points.push_back(anchors_.at(l.id).p_true_w);
     errors.push_back(errorM(l));
   }
+  m.correct_distinct_points = countDistinctPoints(correct_points, kSamePointM);
   m.precision = percent(m.correct_confirmed, m.confirmed);
   m.precision_judged = percent(m.correct_confirmed, m.confirmed - m.unjudged_confirmed);
   m.median_error_m = quantile(errors, 0.5);
@@ -194,6 +238,7 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
   s << i2 << "\"precision\": " << num(m.precision) << ",\n";
   s << i2 << "\"precision_judged\": " << num(m.precision_judged) << ",\n";
   s << i2 << "\"correct_confirmed\": " << m.correct_confirmed << ",\n";
+  s << i2 << "\"correct_distinct_points\": " << m.correct_distinct_points << ",\n";
   s << i2 << "\"confirmed\": " << m.confirmed << ",\n";
   s << i2 << "\"unjudged_confirmed\": " << m.unjudged_confirmed << ",\n";
   s << i2 << "\"unjudged_near_side\": " << m.unjudged_near_side << ",\n";

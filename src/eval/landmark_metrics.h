@@ -39,6 +39,11 @@ struct LandmarkMetrics {
   // landmarks.*
   int64_t confirmed = 0;
   int64_t correct_confirmed = 0;
+  /// Distinct physical points among the correct confirmed landmarks: their true 3D points (the
+  /// anchor pixel's ray at the true depth, placed with the anchor frame's true pose) merged when
+  /// closer than kSamePointM. A policy that confirms the same corner again after losing it
+  /// counts each time in correct_confirmed but once here.
+  int64_t correct_distinct_points = 0;
   int64_t unjudged_confirmed = 0;  ///< anchor pixel without defined ground truth (depth edge)
   /// Of the unjudged confirmed landmarks, those that reproject within 1 px of the anchor with a
   /// disparity within 1 px of the nearest (foreground) surface of the anchor's 3x3 neighbourhood,
@@ -62,16 +67,22 @@ struct LandmarkMetrics {
   std::vector<CalibrationRow> calibration;
 };
 
+/// Two correct landmarks whose true points are closer than this are one physical point [m]
+/// (a Harris corner re-detected from another view lands a pixel or two away: ~6 mm at 3 m).
+constexpr double kSamePointM = 0.02;
+
 class LandmarkEvaluator {
  public:
   explicit LandmarkEvaluator(const StereoRig& rig) : rig_(rig) {}
 
   /// Records the truth of this frame's hypotheses and of the landmarks created in it.
-  /// `gt_depth` is the left camera's ground-truth depth of this frame.
+  /// `gt_depth` is the left camera's ground-truth depth of this frame and T_w_b_true the
+  /// frame's true body pose (for correct_distinct_points).
   Status addFrame(const StereoHypotheses& hyps,
                   const landmarks::FrameReport& report,
                   const landmarks::LandmarkDatabase& db,
-                  const ImageF32& gt_depth);
+                  const ImageF32& gt_depth,
+                  const Eigen::Isometry3d& T_w_b_true);
 
   /// Final metrics from the database's final state.
   [[nodiscard]] LandmarkMetrics finish(const landmarks::LandmarkDatabase& db) const;
@@ -97,6 +108,8 @@ class LandmarkEvaluator {
     /// edge) they tell which side of the edge a landmark took.
     float d_near = 0.0f;
     float d_far = 0.0f;
+    /// True 3D point of the anchor pixel in the true world frame [m] (valid anchors only).
+    Eigen::Vector3f p_true_w = Eigen::Vector3f::Zero();
   };
   StereoRig rig_;
   DisparityGroundTruth gt_;
@@ -106,6 +119,10 @@ class LandmarkEvaluator {
   int64_t hyp_true_ = 0;
   SalientTally frontend_;
 };
+
+/// Number of distinct points: greedy clustering in the given order, a point within radius_m of
+/// an earlier kept point is the same point.
+int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double radius_m);
 
 /// JSON object with the METRICS.md keys, nested by prefix: {"hypotheses": {...},
 /// "landmarks": {...}, "frontend": {...}, "calibration": [...]}.
