@@ -40,8 +40,30 @@ Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out
 
 Status Pipeline::process(int32_t frame, const StereoFrame& stereo, const Pose2& odom_pose, FrameOutput* out) {
   if (Status s = processFrontendOnly(stereo, out); !s) return s;
+  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out);
+}
+
+Status Pipeline::processHypotheses(int32_t frame,
+                                   int64_t t_ns,
+                                   const Pose2& odom_pose,
+                                   const StereoHypotheses& hypotheses,
+                                   FrameOutput* out) {
+  out->mapped_points_w.clear();
+  out->mapped_slots.clear();
+  out->outside_map = false;
+  out->times = StageTimes{};
+  out->failure = FrameOutput::Failure::kNone;
+  hyps_ = hypotheses;
+  return landmarksAndMap(frame, t_ns, odom_pose, hyps_, out);
+}
+
+Status Pipeline::landmarksAndMap(int32_t frame,
+                                 int64_t t_ns,
+                                 const Pose2& odom_pose,
+                                 const StereoHypotheses& hyps,
+                                 FrameOutput* out) {
   const auto t1 = std::chrono::steady_clock::now();
-  if (Status s = db_.update(frame, stereo.t_ns, odom_pose, hyps_, &report_); !s) {
+  if (Status s = db_.update(frame, t_ns, odom_pose, hyps, &report_); !s) {
     out->failure = FrameOutput::Failure::kLandmarks;
     return s;
   }

@@ -57,6 +57,14 @@ class Pipeline {
   /// Frontend only (a log without odometry): corners and hypotheses, no landmarks, no map.
   Status processFrontendOnly(const StereoFrame& stereo, FrameOutput* out);
 
+  /// Landmarks and map from hypotheses made elsewhere (another matcher, e.g. the OpenCV
+  /// reference in pipeline_bench); out->times.frontend_ms stays 0. Copies the hypotheses.
+  Status processHypotheses(int32_t frame,
+                           int64_t t_ns,
+                           const Pose2& odom_pose,
+                           const StereoHypotheses& hypotheses,
+                           FrameOutput* out);
+
   [[nodiscard]] const frontend::Frontend& frontend() const { return frontend_; }
   [[nodiscard]] const landmarks::LandmarkDatabase& database() const { return db_; }
   [[nodiscard]] const mapping::OccupancyMapper& mapper() const { return mapper_; }
@@ -64,6 +72,8 @@ class Pipeline {
   [[nodiscard]] const landmarks::FrameReport& report() const { return report_; }
 
  private:
+  Status landmarksAndMap(int32_t frame, int64_t t_ns, const Pose2& odom_pose, const StereoHypotheses& hyps, FrameOutput* out);
+
   StereoRig rig_;
   frontend::Frontend frontend_;
   landmarks::LandmarkDatabase db_;

@@ -14,12 +14,18 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "frontend/cv_interop.h"
 #include "io/rawlog.h"
 #include "pipeline/config.h"
 #include "pipeline/pipeline.h"
@@ -109,8 +115,75 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
   state.counters["height_px"] = log.rig.height_px;
 }
 
+/// The same landmarks + mapping stages fed by the OpenCV way of getting corners and depth:
+/// goodFeaturesToTrack (Harris, 1000 corners, as in frontend_bench) and a dense StereoBM
+/// (11x11, 64 disparities) read at the corners, one hypothesis per corner. Reference for the
+/// frontend's share of the frame budget, not a like-for-like rival (one hypothesis, no rivals).
+void BM_PipelineOpenCVFrontend(benchmark::State& state) {
+  const RecordedLog& log = recordedLog();
+  if (!log.error.empty()) {
+    state.SkipWithError(log.error.c_str());
+    return;
+  }
+  cv::setNumThreads(1);
+  pipeline::PipelineConfig config;
+  if (Status s = pipeline::clampToRig(log.rig, &config); !s) {
+    state.SkipWithError(s.message().c_str());
+    return;
+  }
+  cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(64, 11);
+  std::vector<double> total, fe, lm, mp;
+  std::vector<cv::Point2f> corners;
+  cv::Mat disparity;
+  StereoHypotheses hyps;
+  for (auto _ : state) {
+    pipeline::Pipeline pipe(log.rig, config);
+    pipeline::FrameOutput out;
+    for (const io::LogFrame& f : log.frames) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const cv::Mat left = frontend::asMat(f.stereo.left);
+      cv::goodFeaturesToTrack(left, corners, 1000, 0.01, 1.0, cv::noArray(), 3, 3, true, 0.04);
+      bm->compute(left, frontend::asMat(f.stereo.right), disparity);
+      hyps.clear();
+      hyps.t_ns = f.stereo.t_ns;
+      for (const cv::Point2f& c : corners) {
+        const int u = static_cast<int>(std::lround(c.x));
+        const int v = static_cast<int>(std::lround(c.y));
+        const int16_t raw = disparity.at<int16_t>(v, u);
+        if (raw <= 0) continue;  // StereoBM marks no match with a negative value
+        SalientPoint p;
+        p.corner.u_px = u;
+        p.corner.v_px = v;
+        p.first_hypothesis = static_cast<uint32_t>(hyps.hypotheses.size());
+        p.num_hypotheses = 1;
+        DisparityHypothesis h;
+        h.d_px = static_cast<float>(raw) / 16.0f;
+        h.point_index = static_cast<uint32_t>(hyps.points.size());
+        h.lr_consistent = true;
+        hyps.points.push_back(p);
+        hyps.hypotheses.push_back(h);
+      }
+      const double fe_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      if (!pipe.processHypotheses(f.index, f.stereo.t_ns, f.odometry->pose, hyps, &out)) continue;
+      out.times.frontend_ms = fe_ms;
+      total.push_back(out.times.total_ms());
+      fe.push_back(fe_ms);
+      lm.push_back(out.times.landmarks_ms);
+      mp.push_back(out.times.mapping_ms);
+    }
+    benchmark::DoNotOptimize(pipe.database().numConfirmed());
+  }
+  state.counters["frames"] = static_cast<double>(log.frames.size());
+  state.counters["total_median_ms"] = quantile(total, 0.5);
+  state.counters["total_p95_ms"] = quantile(total, 0.95);
+  state.counters["frontend_median_ms"] = quantile(fe, 0.5);
+  state.counters["landmarks_median_ms"] = quantile(lm, 0.5);
+  state.counters["mapping_median_ms"] = quantile(mp, 0.5);
+}
+
 BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency, "consistency")->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(BM_PipelinePerFrame, wta_lrc, "wta-lrc")->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_PipelineOpenCVFrontend)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 }  // namespace twocam
