@@ -77,6 +77,27 @@ double quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
+/// Per-frame stage times of every run, reported as medians / p95 [ms].
+struct StageSamples {
+  std::vector<double> total, frontend, landmarks, mapping;
+  void add(const pipeline::StageTimes& t) {
+    total.push_back(t.total_ms());
+    frontend.push_back(t.frontend_ms);
+    landmarks.push_back(t.landmarks_ms);
+    mapping.push_back(t.mapping_ms);
+  }
+  void report(benchmark::State& state, const RecordedLog& log) const {
+    state.counters["frames"] = static_cast<double>(log.frames.size());
+    state.counters["total_median_ms"] = quantile(total, 0.5);
+    state.counters["total_p95_ms"] = quantile(total, 0.95);
+    state.counters["frontend_median_ms"] = quantile(frontend, 0.5);
+    state.counters["landmarks_median_ms"] = quantile(landmarks, 0.5);
+    state.counters["mapping_median_ms"] = quantile(mapping, 0.5);
+    state.counters["width_px"] = log.rig.width_px;
+    state.counters["height_px"] = log.rig.height_px;
+  }
+};
+
 void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
   const RecordedLog& log = recordedLog();
   if (!log.error.empty()) {
@@ -92,27 +113,16 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
     state.SkipWithError(s.message().c_str());
     return;
   }
-  std::vector<double> total, fe, lm, mp;
+  StageSamples samples;
   for (auto _ : state) {
     pipeline::Pipeline pipe(log.rig, config);
     pipeline::FrameOutput out;
     for (const io::LogFrame& f : log.frames) {
-      if (!pipe.process(f.index, f.stereo, f.odometry->pose, &out)) continue;
-      total.push_back(out.times.total_ms());
-      fe.push_back(out.times.frontend_ms);
-      lm.push_back(out.times.landmarks_ms);
-      mp.push_back(out.times.mapping_ms);
+      if (pipe.process(f.index, f.stereo, f.odometry->pose, &out)) samples.add(out.times);
     }
     benchmark::DoNotOptimize(pipe.database().numConfirmed());
   }
-  state.counters["frames"] = static_cast<double>(log.frames.size());
-  state.counters["total_median_ms"] = quantile(total, 0.5);
-  state.counters["total_p95_ms"] = quantile(total, 0.95);
-  state.counters["frontend_median_ms"] = quantile(fe, 0.5);
-  state.counters["landmarks_median_ms"] = quantile(lm, 0.5);
-  state.counters["mapping_median_ms"] = quantile(mp, 0.5);
-  state.counters["width_px"] = log.rig.width_px;
-  state.counters["height_px"] = log.rig.height_px;
+  samples.report(state, log);
 }
 
 /// The same landmarks + mapping stages fed by the OpenCV way of getting corners and depth:
@@ -132,7 +142,7 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
     return;
   }
   cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(64, 11);
-  std::vector<double> total, fe, lm, mp;
+  StageSamples samples;
   std::vector<cv::Point2f> corners;
   cv::Mat disparity;
   StereoHypotheses hyps;
@@ -166,19 +176,11 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
       const double fe_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       if (!pipe.processHypotheses(f.index, f.stereo.t_ns, f.odometry->pose, hyps, &out)) continue;
       out.times.frontend_ms = fe_ms;
-      total.push_back(out.times.total_ms());
-      fe.push_back(fe_ms);
-      lm.push_back(out.times.landmarks_ms);
-      mp.push_back(out.times.mapping_ms);
+      samples.add(out.times);
     }
     benchmark::DoNotOptimize(pipe.database().numConfirmed());
   }
-  state.counters["frames"] = static_cast<double>(log.frames.size());
-  state.counters["total_median_ms"] = quantile(total, 0.5);
-  state.counters["total_p95_ms"] = quantile(total, 0.95);
-  state.counters["frontend_median_ms"] = quantile(fe, 0.5);
-  state.counters["landmarks_median_ms"] = quantile(lm, 0.5);
-  state.counters["mapping_median_ms"] = quantile(mp, 0.5);
+  samples.report(state, log);
 }
 
 BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency, "consistency")->Unit(benchmark::kMillisecond)->Iterations(3);
