@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "io/rawlog.h"
+#include "support/command.h"
 #include "support/test_paths.h"
 
 namespace twocam {
@@ -31,31 +32,11 @@ struct RunResult {
   std::string error;   // stderr alone
 };
 
-std::string readFile(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+using test::readFile;
 
 RunResult run(const std::string& args) {
-  // One pair of output files per test and process: CTest runs the tests of this binary in parallel.
-  const std::string stem =
-      (fs::temp_directory_path() /
-       ("twocam_cli_" +
-        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
-        std::to_string(getpid())))
-          .string();
-  const std::string out_file = stem + ".txt";
-  const std::string err_file = stem + ".err.txt";
-  const std::string cmd =
-      std::string(TWOCAM_BINARY) + " " + args + " > " + out_file + " 2> " + err_file;
-  const int rc = std::system(cmd.c_str());
-  RunResult r;
-  r.exit_code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.error = readFile(err_file);
-  r.output = readFile(out_file) + r.error;
-  return r;
+  const test::CommandResult c = test::runCommand(std::string(TWOCAM_BINARY) + " " + args);
+  return {c.exit_code, c.out + c.err, c.err};
 }
 
 std::string smallWorld() { return test::sourceDir() + "/tests/data/small_world.yaml"; }

@@ -22,6 +22,7 @@
 #include "frontend/rectify.h"
 #include "io/euroc.h"
 #include "io/rawlog.h"
+#include "support/command.h"
 #include "support/test_paths.h"
 
 namespace twocam {
@@ -40,26 +41,11 @@ struct RunResult {
   std::string error;   // stderr
 };
 
-std::string readFile(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+using test::readFile;
 
 RunResult run(const std::string& args) {
-  // One pair of output files per test and process: CTest runs the tests of this binary in parallel.
-  const std::string stem = (fs::temp_directory_path() /
-                            ("twocam_import_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
-                             "_" + std::to_string(getpid())))
-                               .string();
-  const std::string cmd = std::string(TWOCAM_BINARY) + " " + args + " > " + stem + ".txt 2> " + stem + ".err.txt";
-  const int rc = std::system(cmd.c_str());
-  RunResult r;
-  r.exit_code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.output = readFile(stem + ".txt");
-  r.error = readFile(stem + ".err.txt");
-  return r;
+  const test::CommandResult c = test::runCommand(std::string(TWOCAM_BINARY) + " " + args);
+  return {c.exit_code, c.out, c.err};
 }
 
 /// A writable copy of the excerpt's mav0 with its first n stereo pairs: DIR/seq/mav0.
