@@ -317,6 +317,7 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
                                                  l.anchor.v_px,
                                                  l.anchor.d_px,
                                                  T_cl_w_,
+                                                 c.u_px,
                                                  c.v_px,
                                                  h.d_px,
                                                  path_m_ - l.path_at_anchor_m,

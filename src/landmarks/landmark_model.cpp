@@ -49,6 +49,7 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                                double anchor_v_px,
                                double anchor_d_px,
                                const Eigen::Isometry3d& T_cl_w,
+                               double u_px,
                                double v_px,
                                double d_px,
                                double path_m,
@@ -78,10 +79,12 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                            options.odom_rot_sigma_per_m * s;
   // Anchor disparity noise, propagated by re-projecting the ray at d +- sigma.
   Eigen::Vector3d plus, minus;
+  double var_u_anchor = 0.0;
   double var_v_anchor = 0.0;
   double var_d_anchor = 0.0;
   if (predict(anchor_d_px + options.disparity_sigma_px, &plus, nullptr) &&
       predict(anchor_d_px - options.disparity_sigma_px, &minus, nullptr)) {
+    var_u_anchor = 0.25 * (plus.x() - minus.x()) * (plus.x() - minus.x());
     var_v_anchor = 0.25 * (plus.y() - minus.y()) * (plus.y() - minus.y());
     var_d_anchor = 0.25 * (plus.z() - minus.z()) * (plus.z() - minus.z());
   } else {
@@ -93,9 +96,15 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   const double dd_odo = nominal.z() * (sigma_t / z + std::abs(x_over_z) * sigma_yaw);
   const double var_v = px2 + px2 * z_ratio * z_ratio + var_v_anchor + dv_odo * dv_odo;
   const double var_d = options.disparity_sigma_px * options.disparity_sigma_px + var_d_anchor + dd_odo * dd_odo;
+  // Columns: a heading error shifts them all by fx sigma_yaw, a translation error across the
+  // optical axis by fx sigma_t / z and one along it scales the offset from cx (as in the gate).
+  const bool use_u = options.anchor_check_columns;
+  const double du_odo = std::hypot(rig.fx_px * sigma_yaw, (rig.fx_px + std::abs(nominal.x() - rig.cx_px)) * sigma_t / z);
+  const double var_u = px2 + px2 * z_ratio * z_ratio + var_u_anchor + du_odo * du_odo;
+  const double eu = u_px - nominal.x();
   const double ev = v_px - nominal.y();
   const double ed = d_px - nominal.z();
-  out.mahalanobis2 = ev * ev / var_v + ed * ed / var_d;
+  out.mahalanobis2 = ev * ev / var_v + ed * ed / var_d + (use_u ? eu * eu / var_u : 0.0);
   out.valid = true;
   // Discrimination: would a spurious match have been exposed by now? On a periodic texture the
   // spurious disparity stays a fixed multiple of the real one (the period is fixed in the world),
@@ -106,9 +115,11 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   for (const double alt : {anchor_d_px - offset, anchor_d_px + offset}) {
     Eigen::Vector3d real;
     if (!predict(alt, &real, nullptr)) continue;  // such a real point would be behind the camera
+    const double du = real.x() - nominal.x();
     const double dv = real.y() - nominal.y();
     const double dd = real.z() * anchor_d_px / alt - nominal.z();
-    if (dv * dv / var_v + dd * dd / var_d < options.verify_chi2) discriminative = false;
+    const double m2 = dv * dv / var_v + dd * dd / var_d + (use_u ? du * du / var_u : 0.0);
+    if (m2 < options.verify_chi2) discriminative = false;
   }
   out.discriminative = discriminative;
   return out;

@@ -46,7 +46,7 @@ MeasurementSigma predictionSigma(const LandmarkOptions& options,
 
 /// A re-observation compared with the candidate's anchor (docs/landmarks.md, "anchor check").
 struct AnchorCheck {
-  /// Squared Mahalanobis distance of the observed (v, d) from the anchor's prediction.
+  /// Squared Mahalanobis distance of the observed (u, v, d) (or (v, d)) from the anchor's prediction.
   double mahalanobis2 = 0.0;
   /// True when the motion since the anchor would have exposed a spurious match: were the real
   /// point on the anchor ray at d_anchor +- max(verify_min_offset_px, verify_relative_offset
@@ -57,13 +57,13 @@ struct AnchorCheck {
   bool valid = false;
 };
 
-/// Predicts the observation (v, d) [px] of the anchor's triangulation through the odometry pose
-/// T_cl_w of the current frame and compares it with the observed (v_px, d_px). Row and disparity
-/// are used, not the column: a heading error shifts every column alike but hardly changes rows
-/// and disparities, while a wrong depth changes all three as the robot moves. The sigmas combine
-/// the anchor's pixel and disparity noise (propagated by re-projecting the anchor ray at
-/// d_anchor +- disparity_sigma), the observation noise, and the odometry translation and heading
-/// error since the anchor (path_m, turn_rad).
+/// Predicts the observation (u, v, d) [px] of the anchor's triangulation through the odometry
+/// pose T_cl_w of the current frame and compares it with the observed (u_px, v_px, d_px). The
+/// column counts only with options.anchor_check_columns: its sigma carries the heading error
+/// (fx sigma_yaw), which shifts every column alike and grows with the angle turned, while rows
+/// and disparities hardly depend on it. The sigmas combine the anchor's pixel and disparity noise
+/// (propagated by re-projecting the anchor ray at d_anchor +- disparity_sigma), the observation
+/// noise, and the odometry translation and heading error since the anchor (path_m, turn_rad).
 AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                                const StereoRig& rig,
                                const Eigen::Isometry3d& T_w_cl_anchor,
@@ -71,6 +71,7 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                                double anchor_v_px,
                                double anchor_d_px,
                                const Eigen::Isometry3d& T_cl_w,
+                               double u_px,
                                double v_px,
                                double d_px,
                                double path_m,

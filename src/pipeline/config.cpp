@@ -64,7 +64,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 13,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 44,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 45,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -155,7 +155,8 @@ void visitLandmarks(O& o, V& v) {
                     "evidence of an anchor-consistent re-observation [nats], >= 0");
   TWOCAM_CONFIG_KEY(evidence_step_m, "motion needed between counted evidence [m], >= 0");
   TWOCAM_CONFIG_KEY(anchor_gate_chi2,
-                    "anchor check gate on squared Mahalanobis distance (row, d) [-]");
+                    "anchor check gate on squared Mahalanobis distance (u, v, d) [-]");
+  TWOCAM_CONFIG_KEY(anchor_check_columns, "anchor check compares the column too [bool]");
   TWOCAM_CONFIG_KEY(contradiction_evidence, "evidence of an anchor contradiction [nats], <= 0");
   TWOCAM_CONFIG_KEY(confirm_prob, "existence probability needed to confirm [-], in (0, 1)");
   TWOCAM_CONFIG_KEY(verify_min_offset_px, "phantom disparity offset, absolute part [px], >= 0");

@@ -312,6 +312,50 @@ TEST(LandmarkModel, GateGrowsWithDistanceAndTurn) {
   EXPECT_GT(s2.u_px, s1.u_px);
 }
 
+// A periodic-texture alias near the horizon under straight forward motion (the repetitive
+// world's wrongly confirmed landmarks before the column check): the corner is a real point at
+// 4.4 m, the alias disparity a fixed fraction of the real one. Its row hardly moves and its
+// disparity grows by less than a pixel, so row and disparity alone cannot tell it from a real
+// point 10 m away; its column moves away from the principal point like the real point's, not
+// like the alias depth predicts.
+TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  const Eigen::Isometry3d T_w_cl_anchor = cameraPoseInWorld(Pose2{0.0, 0.0, 0.0}, rig.T_b_cl);
+  const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(Pose2{0.6, 0.0, 0.0}, rig.T_b_cl).inverse();
+  const double fb = rig.fx_px * rig.baseline_m;
+  const double u_a = 190.0;
+  const double v_a = rig.cy_px - rig.fy_px * std::tan(5.0 * M_PI / 180.0) + 2.0;  // near the horizon
+  const double d_true = fb / 4.4;
+  const double d_alias = 0.44 * d_true;
+  const auto p_cla = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_true);
+  ASSERT_TRUE(p_cla.has_value());
+  Eigen::Vector3d seen;
+  ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p_cla), &seen));
+  const double d_alias_seen = d_alias * seen.z() / d_true;
+  constexpr double kPathM = 0.6;
+  for (const bool columns : {false, true}) {
+    LandmarkOptions options;
+    options.anchor_check_columns = columns;
+    const AnchorCheck real = checkAgainstAnchor(
+        options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x(), seen.y(), seen.z(), kPathM, 0.0);
+    const AnchorCheck alias = checkAgainstAnchor(
+        options, rig, T_w_cl_anchor, u_a, v_a, d_alias, T_cl_w, seen.x(), seen.y(), d_alias_seen, kPathM, 0.0);
+    ASSERT_TRUE(real.valid && alias.valid);
+    EXPECT_LT(real.mahalanobis2, 0.01) << "columns " << columns;  // exact observation of a real point
+    if (columns) {
+      EXPECT_GT(alias.mahalanobis2, 2.0 * options.anchor_gate_chi2);
+    } else {
+      EXPECT_LT(alias.mahalanobis2, options.anchor_gate_chi2);  // what the row/disparity check misses
+    }
+  }
+  // A turn makes columns uninformative: the same column error is then within the gate.
+  LandmarkOptions options;
+  const AnchorCheck turned = checkAgainstAnchor(
+      options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x() + 12.0, seen.y(), seen.z(), kPathM, 1.5);
+  EXPECT_TRUE(turned.valid);
+  EXPECT_LT(turned.mahalanobis2, options.anchor_gate_chi2);
+}
+
 TEST(LandmarkModel, SvoSeedConvergesOnInliersAndDoubtsOutliers) {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> noise(0.0, 0.005);

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 constexpr int kHarrisKeys = 13;
 constexpr int kSadKeys = 13;
 constexpr int kFrontendOwnKeys = 1;  // source
-constexpr int kLandmarkKeys = 44;
+constexpr int kLandmarkKeys = 45;
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
 
