@@ -99,7 +99,8 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   // Columns: a heading error shifts them all by fx sigma_yaw, a translation error across the
   // optical axis by fx sigma_t / z and one along it scales the offset from cx (as in the gate).
   const bool use_u = options.anchor_check_columns;
-  const double du_odo = std::hypot(rig.fx_px * sigma_yaw, (rig.fx_px + std::abs(nominal.x() - rig.cx_px)) * sigma_t / z);
+  const double du_odo = std::hypot(rig.fx_px * sigma_yaw,
+                                   (rig.fx_px + std::abs(nominal.x() - rig.cx_px)) * sigma_t / z);
   const double var_u = px2 + px2 * z_ratio * z_ratio + var_u_anchor + du_odo * du_odo;
   const double eu = u_px - nominal.x();
   const double ev = v_px - nominal.y();
