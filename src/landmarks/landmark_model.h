@@ -46,7 +46,8 @@ MeasurementSigma predictionSigma(const LandmarkOptions& options,
 
 /// A re-observation compared with the candidate's anchor (docs/landmarks.md, "anchor check").
 struct AnchorCheck {
-  /// Squared Mahalanobis distance of the observed (u, v, d) (or (v, d)) from the anchor's prediction.
+  /// Squared Mahalanobis distance of the observed (u, v, d) from the anchor's prediction ((v, d)
+  /// without anchor_check_columns).
   double mahalanobis2 = 0.0;
   /// True when the motion since the anchor would have exposed a spurious match: were the real
   /// point on the anchor ray at d_anchor +- max(verify_min_offset_px, verify_relative_offset

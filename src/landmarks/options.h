@@ -86,8 +86,8 @@ struct LandmarkOptions {
   /// moved by the odometry since the anchor frame, must predict the observed column, row and
   /// disparity within this squared Mahalanobis distance. 9.21 is the 97.3 % quantile of
   /// chi-square with 3 degrees of freedom (the 99 % one with 2, its value when only rows and
-  /// disparities were compared); measured on the four worlds it gave higher precision and more
-  /// correct landmarks than 11.34 (99 %, 3 dof) and 7.81 (95 %), see docs/landmarks.md.
+  /// disparities were compared); measured on office and repetitive it gave higher precision than
+  /// 11.34 (99 %, 3 dof) and 7.81 (95 %), see docs/landmarks.md.
   double anchor_gate_chi2 = 9.21;
   /// Compare the column in the anchor check too, with the odometry heading error in its sigma
   /// (fx sigma_yaw, so turns make it uninformative while straight driving keeps it sharp). Near

@@ -348,11 +348,15 @@ TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
       EXPECT_LT(alias.mahalanobis2, options.anchor_gate_chi2);  // what the row/disparity check misses
     }
   }
-  // A turn makes columns uninformative: the same column error is then within the gate.
+  // A 25 px column error contradicts a real point after straight driving; after a turn the
+  // heading error makes columns uninformative and the same error is within the gate.
   LandmarkOptions options;
+  const AnchorCheck straight = checkAgainstAnchor(
+      options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x() + 25.0, seen.y(), seen.z(), kPathM, 0.0);
   const AnchorCheck turned = checkAgainstAnchor(
-      options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x() + 12.0, seen.y(), seen.z(), kPathM, 1.5);
-  EXPECT_TRUE(turned.valid);
+      options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x() + 25.0, seen.y(), seen.z(), kPathM, 1.5);
+  ASSERT_TRUE(straight.valid && turned.valid);
+  EXPECT_GT(straight.mahalanobis2, options.anchor_gate_chi2);
   EXPECT_LT(turned.mahalanobis2, options.anchor_gate_chi2);
 }
 
