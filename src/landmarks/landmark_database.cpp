@@ -10,9 +10,10 @@
 namespace twocam::landmarks {
 namespace {
 
-/// Side of the square image cells of the per-frame hypothesis index [px]: about the gate's
-/// width, so a query touches a handful of cells.
-constexpr int kGridCellPx = 16;
+/// Width of the cells of the per-frame hypothesis index [px] (cells are one row tall): about
+/// the typical gate's half-width, so a row of a gate spans two to four cells.
+constexpr int kCellWidthPx = 16;
+
 
 double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
@@ -24,8 +25,6 @@ LandmarkDatabase::LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& 
   TWOCAM_CHECK(rig_status.isOk()) << rig_status.message();
   const Status options_status = options.validate();
   TWOCAM_CHECK(options_status.isOk()) << options_status.message();
-  grid_cols_ = (rig.width_px + kGridCellPx - 1) / kGridCellPx;
-  grid_rows_ = (rig.height_px + kGridCellPx - 1) / kGridCellPx;
 }
 
 Status LandmarkDatabase::update(int32_t frame,
@@ -81,21 +80,30 @@ Status LandmarkDatabase::update(int32_t frame,
   T_w_cl_ = cameraPoseInWorld(odom_pose, T_b_cl_);
   T_cl_w_ = T_w_cl_.inverse();
 
-  // Per-frame hypothesis index: counting sort of hypotheses by image cell of their point.
-  const int num_cells = grid_cols_ * grid_rows_;
-  grid_start_.assign(static_cast<size_t>(num_cells) + 1, 0);
+  // Per-frame hypothesis index: the hypotheses counting-sorted (O(N)) into cells one image row
+  // tall and kCellWidthPx wide, row-major, so that the cells a gate spans in one row form one
+  // contiguous range: a prediction reads two offsets per row and scans only the hypotheses in
+  // its gate's rows and columns (rounded out to whole cells). No all-pairs scan.
+  const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
+  const int num_cells = cells_per_row * rig_.height_px;
+  const size_t num_hyps = hyps.hypotheses.size();
+  cell_start_.assign(static_cast<size_t>(num_cells) + 1, 0);
   for (const DisparityHypothesis& h : hyps.hypotheses) {
     const Corner& c = hyps.points[h.point_index].corner;
-    ++grid_start_[(c.v_px / kGridCellPx) * grid_cols_ + c.u_px / kGridCellPx + 1];
+    ++cell_start_[c.v_px * cells_per_row + c.u_px / kCellWidthPx + 1];
   }
-  for (int i = 0; i < num_cells; ++i) grid_start_[i + 1] += grid_start_[i];
-  grid_items_.resize(hyps.hypotheses.size());
+  for (int i = 0; i < num_cells; ++i) cell_start_[i + 1] += cell_start_[i];
+  grid_items_.resize(num_hyps);
+  grid_uvd_.resize(num_hyps);
   {
     std::vector<int32_t>& fill = hyp_claim_;  // reused as a cursor array before the claims
-    fill.assign(grid_start_.begin(), grid_start_.end() - 1);
-    for (size_t j = 0; j < hyps.hypotheses.size(); ++j) {
-      const Corner& c = hyps.points[hyps.hypotheses[j].point_index].corner;
-      grid_items_[fill[(c.v_px / kGridCellPx) * grid_cols_ + c.u_px / kGridCellPx]++] = static_cast<int32_t>(j);
+    fill.assign(cell_start_.begin(), cell_start_.end() - 1);
+    for (size_t j = 0; j < num_hyps; ++j) {
+      const DisparityHypothesis& h = hyps.hypotheses[j];
+      const Corner& c = hyps.points[h.point_index].corner;
+      const int32_t k = fill[c.v_px * cells_per_row + c.u_px / kCellWidthPx]++;
+      grid_items_[k] = static_cast<int32_t>(j);
+      grid_uvd_[k] = {static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px, h.point_index};
     }
   }
   const double d_range = options_.max_disparity_px - options_.min_disparity_px + 1.0;
@@ -118,7 +126,9 @@ uint32_t LandmarkDatabase::allocateSlot() {
   } else {
     slot = static_cast<uint32_t>(slots_.size());
     slots_.emplace_back();
+    hot_.emplace_back();
   }
+  hot_[slot] = HotSlot();
   Landmark& l = slots_[slot];
   std::vector<Observation> keep = std::move(l.observations);  // keeps its capacity
   keep.clear();
@@ -135,6 +145,7 @@ void LandmarkDatabase::releaseSlot(uint32_t slot, FrameReport* report) {
   if (l.state == LandmarkState::kCandidate) --num_candidates_;
   if (l.state == LandmarkState::kConfirmed) --num_confirmed_;
   l.state = LandmarkState::kFree;
+  hot_[slot].state = LandmarkState::kFree;
   l.observations.clear();
   free_slots_.push_back(slot);
   if (report != nullptr) {
@@ -192,19 +203,23 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoH
   const double border = options_.visibility_border_px;
   const double g = std::sqrt(options_.gate_chi2);
   const double ellipsoid = 4.0 / 3.0 * M_PI * g * g * g;
+  // The visibility test reads only the compact per-slot copies (hot_): most slots are confirmed
+  // landmarks out of view, whose full records are then not touched.
   for (uint32_t s = 0; s < slots_.size(); ++s) {
-    Landmark& l = slots_[s];
-    if (l.state == LandmarkState::kFree) continue;
-    const Eigen::Vector3d p_cl = T_cl_w * l.p_w_last;
+    const HotSlot& hot = hot_[s];
+    if (hot.state == LandmarkState::kFree) continue;
+    const Eigen::Vector3d p_cl = T_cl_w * hot.p_w_last;
     Eigen::Vector3d uvd;
     const bool in_view = p_cl.z() >= options_.min_depth_m && projectStereo(rig_, p_cl, &uvd) &&
                          uvd.x() >= border && uvd.x() <= rig_.width_px - 1 - border && uvd.y() >= border &&
                          uvd.y() <= rig_.height_px - 1 - border && uvd.z() >= options_.min_disparity_px - 1.0 &&
                          uvd.z() <= options_.max_disparity_px + 1.0;
     if (!in_view) {
-      ++l.frames_out_of_view;
+      // Only candidates age out of view; confirmed landmarks are kept until they return.
+      if (hot.state == LandmarkState::kCandidate) ++slots_[s].frames_out_of_view;
       continue;
     }
+    Landmark& l = slots_[s];
     l.frames_out_of_view = 0;
     ++l.n_visible;
     visible_[s] = 1;
@@ -216,6 +231,7 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoH
                                                    turn_rad_ - l.turn_at_last_seen_rad);
     Prediction p;
     p.slot = s;
+    p.confirmed = hot.state == LandmarkState::kConfirmed;
     p.u = static_cast<float>(uvd.x());
     p.v = static_cast<float>(uvd.y());
     p.d = static_cast<float>(uvd.z());
@@ -238,14 +254,15 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
   // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
   std::vector<int32_t> pred_hyp(predictions_.size(), -1);
   for (int pass = 0; pass < 2; ++pass) {
-    const LandmarkState wanted = pass == 0 ? LandmarkState::kConfirmed : LandmarkState::kCandidate;
+    const bool wanted = pass == 0;  // confirmed landmarks first
     for (size_t i = 0; i < predictions_.size(); ++i) {
       const Prediction& p = predictions_[i];
-      if (slots_[p.slot].state != wanted) continue;
-      const int c0 = std::max(0, static_cast<int>((p.u - p.gate_u) / kGridCellPx));
-      const int c1 = std::min(grid_cols_ - 1, static_cast<int>((p.u + p.gate_u) / kGridCellPx));
-      const int r0 = std::max(0, static_cast<int>((p.v - p.gate_v) / kGridCellPx));
-      const int r1 = std::min(grid_rows_ - 1, static_cast<int>((p.v + p.gate_v) / kGridCellPx));
+      if (p.confirmed != wanted) continue;
+      const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
+      const int r0 = std::max(0, static_cast<int>(std::ceil(p.v - p.gate_v)));
+      const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(p.v + p.gate_v)));
+      const int c0 = std::max(0, static_cast<int>((p.u - p.gate_u) / kCellWidthPx));
+      const int c1 = std::min(cells_per_row - 1, static_cast<int>((p.u + p.gate_u) / kCellWidthPx));
       int32_t best = -1;
       float best_d2 = gate;
       // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
@@ -253,34 +270,32 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       const bool count_points = pass == 0 && options_.policy == Policy::kConsistency && options_.unambiguous_confirmed_hits;
       uint32_t first_point = UINT32_MAX;
       bool ambiguous = false;
-      for (int r = r0; r <= r1; ++r) {
-        for (int c = c0; c <= c1; ++c) {
-          const int cell = r * grid_cols_ + c;
-          for (int k = grid_start_[cell]; k < grid_start_[cell + 1]; ++k) {
-            const int32_t j = grid_items_[k];
-            const DisparityHypothesis& h = hyps.hypotheses[j];
-            const Corner& corner = hyps.points[h.point_index].corner;
-            const float du = static_cast<float>(corner.u_px) - p.u;
-            const float dv = static_cast<float>(corner.v_px) - p.v;
-            const float dd = h.d_px - p.d;
-            const float d2 = du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d;
-            if (count_points && d2 <= gate) {
-              if (first_point == UINT32_MAX) {
-                first_point = h.point_index;
-              } else if (h.point_index != first_point) {
-                ambiguous = true;
-              }
+      for (int r = r0; r <= r1 && c0 <= c1; ++r) {
+        const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
+        for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0]; it != row_end; ++it) {
+          const GridEntry& e = *it;
+          const float du = e.u - p.u;
+          const float dv = e.v - p.v;
+          const float dd = e.d - p.d;
+          const float d2 = du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d;
+          if (d2 > gate) continue;
+          if (count_points) {
+            if (first_point == UINT32_MAX) {
+              first_point = e.point_index;
+            } else if (e.point_index != first_point) {
+              ambiguous = true;
             }
-            if (d2 > best_d2) continue;
-            const int32_t owner = hyp_claim_[j];
-            if (owner >= 0) {
-              // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
-              if (slots_[predictions_[owner].slot].state == LandmarkState::kConfirmed && pass == 1) continue;
-              if (hyp_claim_d2_[j] <= d2) continue;
-            }
-            best = j;
-            best_d2 = d2;
           }
+          if (d2 > best_d2) continue;
+          const int32_t j = grid_items_[it - grid_uvd_.data()];
+          const int32_t owner = hyp_claim_[j];
+          if (owner >= 0) {
+            // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
+            if (predictions_[owner].confirmed && pass == 1) continue;
+            if (hyp_claim_d2_[j] <= d2) continue;
+          }
+          best = j;
+          best_d2 = d2;
         }
       }
       // A confirmed landmark whose gate holds several corners cannot tell which one is its own
@@ -332,16 +347,19 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
     }
     if (check.discriminative) l.verified = true;
   }
-  Observation obs;
-  obs.frame = frame_;
-  obs.u_px = static_cast<float>(c.u_px);
-  obs.v_px = static_cast<float>(c.v_px);
-  obs.d_px = h.d_px;
-  obs.odom_pose = pose_;
-  if (static_cast<int>(l.observations.size()) >= options_.max_observations) {
-    l.observations.erase(l.observations.begin() + 1);  // keep the anchor, drop the oldest other
+  if (l.state == LandmarkState::kCandidate) {
+    // Observations feed the refinement at confirmation; a confirmed landmark keeps none.
+    Observation obs;
+    obs.frame = frame_;
+    obs.u_px = static_cast<float>(c.u_px);
+    obs.v_px = static_cast<float>(c.v_px);
+    obs.d_px = h.d_px;
+    obs.odom_pose = pose_;
+    if (static_cast<int>(l.observations.size()) >= options_.max_observations) {
+      l.observations.erase(l.observations.begin() + 1);  // keep the anchor, drop the oldest other
+    }
+    l.observations.push_back(obs);
   }
-  l.observations.push_back(obs);
   ++l.n_obs;
   l.last_seen_frame = frame_;
   l.path_at_last_seen_m = path_m_;
@@ -349,6 +367,7 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
   l.consecutive_misses = 0;
   if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(c.u_px, c.v_px), h.d_px)) {
     l.p_w_last = T_w_cl_ * *p_cl;
+    hot_[slot].p_w_last = l.p_w_last;
     if (options_.policy == Policy::kInlierRatio && l.state == LandmarkState::kCandidate) {
       // The measurement as an inverse depth along the anchor ray (SVO's seed parametrisation).
       const Eigen::Vector3d p_anchor = cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_).inverse() * l.p_w_last;
@@ -410,6 +429,9 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
   // 2. Policy rules and life cycle of candidates.
   const double t_s = static_cast<double>(t_ns_) * 1e-9;
   for (uint32_t s = 0; s < slots_.size(); ++s) {
+    // A confirmed landmark's misses change only when it is predicted visible.
+    const LandmarkState state = hot_[s].state;
+    if (state == LandmarkState::kFree || (state == LandmarkState::kConfirmed && !visible_[s])) continue;
     Landmark& l = slots_[s];
     if (l.state == LandmarkState::kConfirmed) {
       if (l.consecutive_misses > options_.max_confirmed_misses) {
@@ -494,6 +516,7 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   }
   removeFromGroup(slot);
   l.state = LandmarkState::kConfirmed;
+  hot_[slot].state = LandmarkState::kConfirmed;
   l.confirmed_frame = frame_;
   --num_candidates_;
   ++num_confirmed_;
@@ -505,6 +528,9 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
     ro.noise_model = options_;
     if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
   }
+  // Confirmed landmarks are not re-refined (see LandmarkOptions::refine), so their observations
+  // are not needed any more: about 1 kB per landmark, and no per-hit copying.
+  std::vector<Observation>().swap(l.observations);
 }
 
 void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
@@ -541,9 +567,11 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       const uint32_t slot = allocateSlot();
       Landmark& l = slots_[slot];
       l.state = LandmarkState::kCandidate;
+      hot_[slot].state = LandmarkState::kCandidate;
       ++num_candidates_;
       l.p_w = T_w_cl_ * *p_cl;
       l.p_w_last = l.p_w;
+      hot_[slot].p_w_last = l.p_w;
       l.anchor.frame = frame_;
       l.anchor.u_px = static_cast<float>(point.corner.u_px);
       l.anchor.v_px = static_cast<float>(point.corner.v_px);

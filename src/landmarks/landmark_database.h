@@ -78,7 +78,9 @@ struct Landmark {
   float svo_a = 10.0f;
   float svo_b = 10.0f;
   float svo_range = 0.0f;
-  /// Anchor plus the most recent observations (at most LandmarkOptions::max_observations).
+  /// Candidates: the anchor plus the most recent observations (at most
+  /// LandmarkOptions::max_observations), for the refinement at confirmation. Emptied when the
+  /// landmark is confirmed (confirmed landmarks are not re-refined).
   std::vector<Observation> observations;
 };
 
@@ -143,6 +145,7 @@ class LandmarkDatabase {
     float inv_var_u, inv_var_v, inv_var_d;
     float gate_u, gate_v;
     float p_false_hit_per_hyp;
+    bool confirmed;  // the landmark's state when predicted (read without touching slots_)
   };
 
   uint32_t allocateSlot();
@@ -159,10 +162,19 @@ class LandmarkDatabase {
   void seed(const StereoHypotheses& hyps, FrameReport* report);
   void enforceCaps(FrameReport* report);
 
+  /// What the per-frame visibility test of every slot reads, kept apart from the (much larger)
+  /// Landmark records so that the scan over thousands of out-of-view landmarks stays in cache.
+  /// Mirrors Landmark::state and Landmark::p_w_last.
+  struct HotSlot {
+    Eigen::Vector3d p_w_last = Eigen::Vector3d::Zero();
+    LandmarkState state = LandmarkState::kFree;
+  };
+
   StereoRig rig_;
   LandmarkOptions options_;
   Eigen::Isometry3d T_b_cl_;
   std::vector<Landmark> slots_;
+  std::vector<HotSlot> hot_;  // parallel to slots_
   std::vector<uint32_t> free_slots_;
   std::vector<RivalGroup> groups_;
   std::vector<uint32_t> free_groups_;
@@ -186,12 +198,16 @@ class LandmarkDatabase {
   std::vector<uint8_t> informative_;   // per slot, this frame: the motion since the anchor exposes depth
   std::vector<int32_t> hyp_claim_;   // per hypothesis: prediction index, or -1
   std::vector<float> hyp_claim_d2_;
-  std::vector<int32_t> grid_start_;
-  std::vector<int32_t> grid_items_;
+  std::vector<int32_t> cell_start_;  // per index cell: first index into grid_items_ / grid_uvd_
+  std::vector<int32_t> grid_items_;  // hypothesis indices in cell order
+  /// Per grid item, in the same order: the hypothesis's corner, disparity and point.
+  struct GridEntry {
+    float u, v, d;
+    uint32_t point_index;
+  };
+  std::vector<GridEntry> grid_uvd_;
   std::vector<uint32_t> groups_touched_;
   std::vector<uint8_t> group_touched_flag_;
-  int grid_cols_ = 0;
-  int grid_rows_ = 0;
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
 };
 

@@ -1,6 +1,6 @@
 #include "landmarks/refine.h"
 
-#include <ceres/ceres.h>
+#include <ceres/tiny_solver.h>
 
 #include <algorithm>
 #include <cmath>
@@ -49,16 +49,18 @@ struct AnchoredResidual {
                      dd_yaw * dd_yaw);
   }
 
-  template <typename T>
-  bool operator()(const T* const d_anchor, T* residual) const {
-    if (!(d_anchor[0] > T(1e-6))) return false;
-    const T z_a = T(fb) / d_anchor[0];
-    const T pa[3] = {T(xa) * z_a, T(ya) * z_a, z_a};
-    T p[3];
-    for (int r = 0; r < 3; ++r)
-      p[r] = T(R(r, 0)) * pa[0] + T(R(r, 1)) * pa[1] + T(R(r, 2)) * pa[2] + T(t(r));
-    if (!(p[2] > T(1e-6))) return false;
-    residual[0] = (T(fb) / p[2] - T(d)) * T(inv_d);
+  /// Normalised residual (predicted - observed disparity) / sigma at anchor disparity d_a, and
+  /// its derivative. The point on the anchor ray is p_ca = (xa, ya, 1) fb / d_a, so its depth in
+  /// the observation's camera is a fb / d_a + t_z with a = R.row(2) (xa, ya, 1), and the
+  /// predicted disparity fb / z = fb d_a / (a fb + t_z d_a). False when the point is behind
+  /// either camera.
+  bool evaluate(double d_a, double* residual, double* jacobian) const {
+    if (!(d_a > 1e-6)) return false;
+    const double a = R(2, 0) * xa + R(2, 1) * ya + R(2, 2);
+    const double denom = a * fb + t.z() * d_a;
+    if (!(denom > 1e-6 * d_a)) return false;  // z = denom / d_a must be positive
+    *residual = (fb * d_a / denom - d) * inv_d;
+    *jacobian = fb * fb * a / (denom * denom) * inv_d;
     return true;
   }
 
@@ -66,6 +68,45 @@ struct AnchoredResidual {
   Eigen::Vector3d t;
   double fb, xa, ya, d, inv_d;
 };
+
+/// The problem for Ceres' TinySolver (Levenberg-Marquardt for small dense problems, no heap work
+/// per iteration; the general ceres::Problem spent most of its time building and tearing down
+/// the problem, which for one parameter and 24 residuals dominated the landmark update). The
+/// Huber loss rho(s) = s for s <= k^2, 2 k sqrt(s) - k^2 beyond (ceres::HuberLoss) enters in
+/// square-root form: each residual r becomes sign(r) sqrt(rho(r^2)), so the sum of squares is
+/// exactly the robust cost, and its slope is scaled by k / |r~| beyond the kink (C1 at |r| = k).
+/// A point behind a camera gets a large residual, so a step that goes there is rejected.
+struct HuberProblem {
+  using Scalar = double;
+  enum { NUM_RESIDUALS = Eigen::Dynamic, NUM_PARAMETERS = 1 };
+  const std::vector<AnchoredResidual>* residuals;
+  double k;
+
+  [[nodiscard]] int NumResiduals() const { return static_cast<int>(residuals->size()); }
+
+  bool operator()(const double* params, double* out, double* jacobian) const {
+    constexpr double kInvalidResidual = 1e6;
+    for (size_t i = 0; i < residuals->size(); ++i) {
+      double r = 0.0, j = 0.0;
+      if (!(*residuals)[i].evaluate(params[0], &r, &j)) {
+        r = kInvalidResidual;
+        j = 0.0;
+      }
+      const double abs_r = std::abs(r);
+      if (abs_r > k) {
+        const double robust = std::sqrt(2.0 * k * abs_r - k * k);
+        j *= k / robust;
+        r = std::copysign(robust, r);
+      }
+      out[i] = r;
+      if (jacobian != nullptr) jacobian[i] = j;
+    }
+    return true;
+  }
+};
+
+/// Scratch space of the refinement, reused between calls (one per thread).
+thread_local std::vector<AnchoredResidual> t_residual_scratch;
 
 }  // namespace
 
@@ -82,24 +123,19 @@ RefineResult refineLandmark(const StereoRig& rig,
   const Eigen::Vector3d p_ca = T_w_ca.inverse() * *p_w;
   if (!(p_ca.z() > 0.0)) return RefineResult::kBehindCamera;
   double d_anchor = rig.fx_px * rig.baseline_m / p_ca.z();
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
+  std::vector<AnchoredResidual>& residuals = t_residual_scratch;
+  residuals.clear();
   for (const Observation& obs : observations) {
     const Eigen::Isometry3d T_ck_ca = cameraPoseInWorld(obs.odom_pose, T_b_cl).inverse() * T_w_ca;
-    auto* cost = new ceres::AutoDiffCostFunction<AnchoredResidual, 1, 1>(
-        new AnchoredResidual(rig, T_ck_ca, anchor, obs, options));
-    problem.AddResidualBlock(cost, new ceres::HuberLoss(options.huber), &d_anchor);
+    residuals.emplace_back(rig, T_ck_ca, anchor, obs, options);
   }
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  if (summary.termination_type == ceres::FAILURE || !std::isfinite(d_anchor) || !(d_anchor > 0.0)) {
+  const HuberProblem problem{&residuals, options.huber};
+  ceres::TinySolver<HuberProblem> solver;
+  solver.options.max_num_iterations = options.max_iterations + 1;  // it counts the first evaluation
+  Eigen::Matrix<double, 1, 1> x(d_anchor);
+  const auto& summary = solver.Solve(problem, &x);
+  d_anchor = x(0);
+  if (!std::isfinite(d_anchor) || !(d_anchor > 0.0)) {
     return RefineResult::kNoConvergence;
   }
   if (std::abs(d_anchor - anchor.d_px) >

@@ -1,5 +1,5 @@
 #pragma once
-/// Multi-view triangulation of a confirmed landmark with Ceres, anchored: the landmark stays on
+/// Multi-view triangulation of a confirmed landmark with Ceres (its TinySolver), anchored: the landmark stays on
 /// the ray of its anchor pixel (observations[0]) and its disparity there is estimated from the
 /// disparities of all its observations, each predicted through the odometry poses relative to
 /// the anchor frame, under a Huber loss. Columns and rows are left out on purpose, measured on
@@ -22,7 +22,7 @@ struct RefineOptions {
   double disparity_sigma_px = 0.5;
   /// Huber scale in sigmas [-].
   double huber = 1.0;
-  /// Gauss-Newton iterations (a 3-parameter problem converges in a handful) [-].
+  /// Levenberg-Marquardt iterations (one parameter: it converges in a handful) [-].
   int max_iterations = 10;
   /// Weigh each observation by its odometry uncertainty relative to the anchor frame: its
   /// sigma becomes sqrt(disparity_sigma^2 + sigma_odo^2), sigma_odo the disparity error that

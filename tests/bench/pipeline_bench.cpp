@@ -8,6 +8,9 @@
 ///
 ///   TWOCAM_BENCH_LOG=out/office.rawlog build/bench/tests/bench/pipeline_bench
 ///
+/// TWOCAM_BENCH_CONFIG=FILE.yaml runs it with that config (as `twocam run --config`); the
+/// policy of each benchmark still overrides the file's.
+///
 /// Without TWOCAM_BENCH_LOG the benchmark looks for out/office.rawlog (the main command's log)
 /// under the current folder and skips with a message when there is none.
 
@@ -105,6 +108,12 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
     return;
   }
   pipeline::PipelineConfig config;
+  if (const char* cfg = std::getenv("TWOCAM_BENCH_CONFIG")) {
+    if (Status s = pipeline::loadConfigFile(cfg, &config); !s) {
+      state.SkipWithError(s.message().c_str());
+      return;
+    }
+  }
   if (Status s = landmarks::parsePolicy(policy, &config.landmarks.policy); !s) {
     state.SkipWithError(s.message().c_str());
     return;
