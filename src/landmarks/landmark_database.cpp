@@ -78,6 +78,11 @@ Status LandmarkDatabase::update(int32_t frame,
   t_ns_ = t_ns;
   pose_ = odom_pose;
   T_w_cl_ = cameraPoseInWorld(odom_pose, T_b_cl_);
+  {
+    PoseRingEntry& e = pose_ring_[static_cast<uint32_t>(frame) % kPoseRingSize];
+    e.frame = frame;
+    e.T_w_cl = T_w_cl_;
+  }
   T_cl_w_ = T_w_cl_.inverse();
 
   // Per-frame hypothesis index: the hypotheses counting-sorted (O(N)) into cells one image row
@@ -322,12 +327,18 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
   report->predicted_visible = static_cast<int>(predictions_.size());
 }
 
+Eigen::Isometry3d LandmarkDatabase::anchorCameraPose(const Landmark& l) const {
+  const PoseRingEntry& e = pose_ring_[static_cast<uint32_t>(l.anchor.frame) % kPoseRingSize];
+  if (e.frame == l.anchor.frame) return e.T_w_cl;
+  return cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_);
+}
+
 bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c) {
   Landmark& l = slots_[slot];
   if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
     const AnchorCheck check = checkAgainstAnchor(options_,
                                                  rig_,
-                                                 cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_),
+                                                 anchorCameraPose(l),
                                                  l.anchor.u_px,
                                                  l.anchor.v_px,
                                                  l.anchor.d_px,

@@ -157,6 +157,9 @@ class LandmarkDatabase {
   void associate(const StereoHypotheses& hyps, FrameReport* report);
   /// Returns false when the observation contradicts the candidate's anchor (not recorded).
   bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
+  /// T_w_cl of the landmark's anchor frame, from the ring of recent frames' poses when it is
+  /// there (the anchor check needs it for every candidate association).
+  [[nodiscard]] Eigen::Isometry3d anchorCameraPose(const Landmark& l) const;
   void scoreAndLifeCycle(FrameReport* report);
   void confirm(uint32_t slot, FrameReport* report);
   void seed(const StereoHypotheses& hyps, FrameReport* report);
@@ -175,6 +178,13 @@ class LandmarkDatabase {
   Eigen::Isometry3d T_b_cl_;
   std::vector<Landmark> slots_;
   std::vector<HotSlot> hot_;  // parallel to slots_
+  /// Camera poses of the last kPoseRingSize frames, indexed by frame % kPoseRingSize.
+  static constexpr uint32_t kPoseRingSize = 256;
+  struct PoseRingEntry {
+    int32_t frame = -1;
+    Eigen::Isometry3d T_w_cl = Eigen::Isometry3d::Identity();
+  };
+  std::vector<PoseRingEntry> pose_ring_ = std::vector<PoseRingEntry>(kPoseRingSize);
   std::vector<uint32_t> free_slots_;
   std::vector<RivalGroup> groups_;
   std::vector<uint32_t> free_groups_;

@@ -23,6 +23,13 @@
 #include <vector>
 
 namespace twocam::pipeline {
+
+frontend::FrontendOptions pipelineFrontendDefaults() {
+  frontend::FrontendOptions options;
+  options.harris.target_count = 2500;
+  options.harris.max_corners = 5000;  // 2x the target, as in HarrisOptions
+  return options;
+}
 namespace {
 
 using yaml::editDistance;

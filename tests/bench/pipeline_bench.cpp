@@ -135,8 +135,8 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
 }
 
 /// The same landmarks + mapping stages fed by the OpenCV way of getting corners and depth:
-/// goodFeaturesToTrack (Harris, 1000 corners, as in frontend_bench) and a dense StereoBM
-/// (11x11, 64 disparities) read at the corners, one hypothesis per corner. Reference for the
+/// goodFeaturesToTrack (Harris, as many corners as the pipeline's harris.target_count) and a
+/// dense StereoBM (11x11, 64 disparities) read at the corners, one hypothesis per corner. Reference for the
 /// frontend's share of the frame budget, not a like-for-like rival (one hypothesis, no rivals).
 void BM_PipelineOpenCVFrontend(benchmark::State& state) {
   const RecordedLog& log = recordedLog();
@@ -146,10 +146,18 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
   }
   cv::setNumThreads(1);
   pipeline::PipelineConfig config;
+  if (const char* cfg = std::getenv("TWOCAM_BENCH_CONFIG")) {
+    if (Status s = pipeline::loadConfigFile(cfg, &config); !s) {
+      state.SkipWithError(s.message().c_str());
+      return;
+    }
+  }
   if (Status s = pipeline::clampToRig(log.rig, &config); !s) {
     state.SkipWithError(s.message().c_str());
     return;
   }
+  // As many corners as our frontend's budget (the pipeline's harris.target_count).
+  const int max_corners = config.frontend.harris.target_count;
   cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(64, 11);
   StageSamples samples;
   std::vector<cv::Point2f> corners;
@@ -161,7 +169,7 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
     for (const io::LogFrame& f : log.frames) {
       const auto t0 = std::chrono::steady_clock::now();
       const cv::Mat left = frontend::asMat(f.stereo.left);
-      cv::goodFeaturesToTrack(left, corners, 1000, 0.01, 1.0, cv::noArray(), 3, 3, true, 0.04);
+      cv::goodFeaturesToTrack(left, corners, max_corners, 0.01, 1.0, cv::noArray(), 3, 3, true, 0.04);
       bm->compute(left, frontend::asMat(f.stereo.right), disparity);
       hyps.clear();
       hyps.t_ns = f.stereo.t_ns;
