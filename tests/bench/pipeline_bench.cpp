@@ -73,6 +73,12 @@ const RecordedLog& recordedLog() {
   return log;
 }
 
+/// The config of the run: the defaults, or TWOCAM_BENCH_CONFIG's file over them.
+Status loadBenchConfig(pipeline::PipelineConfig* config) {
+  const char* path = std::getenv("TWOCAM_BENCH_CONFIG");
+  return path ? pipeline::loadConfigFile(path, config) : Status::ok();
+}
+
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
@@ -108,11 +114,9 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
     return;
   }
   pipeline::PipelineConfig config;
-  if (const char* cfg = std::getenv("TWOCAM_BENCH_CONFIG")) {
-    if (Status s = pipeline::loadConfigFile(cfg, &config); !s) {
-      state.SkipWithError(s.message().c_str());
-      return;
-    }
+  if (Status s = loadBenchConfig(&config); !s) {
+    state.SkipWithError(s.message().c_str());
+    return;
   }
   if (Status s = landmarks::parsePolicy(policy, &config.landmarks.policy); !s) {
     state.SkipWithError(s.message().c_str());
@@ -146,11 +150,9 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
   }
   cv::setNumThreads(1);
   pipeline::PipelineConfig config;
-  if (const char* cfg = std::getenv("TWOCAM_BENCH_CONFIG")) {
-    if (Status s = pipeline::loadConfigFile(cfg, &config); !s) {
-      state.SkipWithError(s.message().c_str());
-      return;
-    }
+  if (Status s = loadBenchConfig(&config); !s) {
+    state.SkipWithError(s.message().c_str());
+    return;
   }
   if (Status s = pipeline::clampToRig(log.rig, &config); !s) {
     state.SkipWithError(s.message().c_str());
