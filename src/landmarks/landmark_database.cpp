@@ -14,7 +14,6 @@ namespace {
 /// the typical gate's half-width, so a row of a gate spans two to four cells.
 constexpr int kCellWidthPx = 16;
 
-
 double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
 }  // namespace
@@ -258,12 +257,12 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
   // Confirmed landmarks choose first: a corner they explain is not given to a candidate.
   // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
   std::vector<int32_t> pred_hyp(predictions_.size(), -1);
+  const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
   for (int pass = 0; pass < 2; ++pass) {
     const bool wanted = pass == 0;  // confirmed landmarks first
     for (size_t i = 0; i < predictions_.size(); ++i) {
       const Prediction& p = predictions_[i];
       if (p.confirmed != wanted) continue;
-      const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
       const int r0 = std::max(0, static_cast<int>(std::ceil(p.v - p.gate_v)));
       const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(p.v + p.gate_v)));
       const int c0 = std::max(0, static_cast<int>((p.u - p.gate_u) / kCellWidthPx));
