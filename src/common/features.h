@@ -36,6 +36,12 @@ struct DisparityHypothesis {
   /// window, -h / +h when a window ending / starting at the corner matched (shiftable windows,
   /// the sign of a depth edge through the corner).
   int8_t window_shift_px = 0;
+  /// Row support [px]: spread max - min of this disparity and the best disparities of the same
+  /// window on the rows above and below, searched within a few px of it (frontend
+  /// measureRowSupport). A 1xW window is blind across rows; a real match on a surface whose
+  /// depth is well defined at the corner is matched at about the same disparity one row up and
+  /// down. 0 when not measured.
+  float row_span_px = 0.0f;
 };
 
 /// A salient point and the range of its hypotheses in StereoHypotheses::hypotheses.

@@ -57,6 +57,9 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
                  ? matchSalient(frame.left, frame.right, left_corners_, options_.sad, out)
                  : pairCorners(frame.left, frame.right, left_corners_, right_corners_, options_.sad, out);
   if (!s) return s;
+  if (options_.sad.row_support) {
+    if (Status r = measureRowSupport(frame.left, frame.right, options_.sad, out); !r) return r;
+  }
   out->t_ns = frame.t_ns;
   timing_.matching_ms = msSince(t1);
   timing_.total_ms = msSince(t0);

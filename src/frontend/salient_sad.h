@@ -93,6 +93,17 @@ struct SalientSadOptions {
   bool zero_mean = false;
   /// Which SAD implementation to run (results are identical; see SadKernel).
   SadKernel kernel = SadKernel::kAuto;
+  /// Row support (measureRowSupport): after matching, the frontend matches each hypothesis'
+  /// window on the rows above and below within +-row_support_radius_px of its disparity and
+  /// stores the spread in DisparityHypothesis::row_span_px. Off for the matcher alone (its
+  /// stereo-eval figures were measured without it); `twocam run` turns it on, because the
+  /// landmark database does not seed hypotheses whose rows disagree (docs/landmarks.md).
+  bool row_support = false;
+  /// Search radius of the row-support match around the hypothesis' integer disparity [px], in
+  /// [1, 16]. 3 covers the disparity change of a slanted floor between rows (B/h px per row, 0.24
+  /// on the simulated rigs) and sub-pixel noise, while staying far below the spacing of
+  /// periodic-texture aliases, which the other rows would otherwise match instead.
+  int row_support_radius_px = 3;
 
   /// OK, or an error naming the first broken constraint and its value.
   [[nodiscard]] Status validate() const;
@@ -143,6 +154,22 @@ Status pairCorners(const ImageU8& left,
                    const std::vector<Corner>& right_corners,
                    const SalientSadOptions& options,
                    StereoHypotheses* out);
+
+/// Row support of every hypothesis in `hyps` (computed on `left`/`right`, the pair the
+/// hypotheses came from): for the rows v - 1 and v + 1 that exist (right rows shifted by the
+/// hypothesis' row_offset_px), the 1xW window of the hypothesis' alignment (window_shift_px)
+/// is compared with the right image at integer disparities D - R - 1 .. D + R + 1 (D = the
+/// rounded d_px, R = options.row_support_radius_px, clipped to the image); the cheapest of
+/// D - R .. D + R, parabola-refined, is that row's disparity. row_span_px = max - min of d_px
+/// and those row disparities (0 when neither row could be matched). A row whose best lies at
+/// D +- R therefore adds about R px: it prefers a disparity outside the radius. With AVX2 (and
+/// plain SAD, 4 <= W <= 16) the costs come from SSE4.1's mpsadbw; the result is the same bit for
+/// bit. Errors (hyps untouched) as matchSalient's input checks, or for a point whose hypothesis
+/// range runs past the hypotheses.
+Status measureRowSupport(const ImageU8& left,
+                         const ImageU8& right,
+                         const SalientSadOptions& options,
+                         StereoHypotheses* hyps);
 
 /// The point's rank-0 hypothesis when it passed the right-to-left check and no rival that
 /// disagrees with it by more than agree_px [px] did; nullptr otherwise (no hypotheses, best

@@ -332,6 +332,10 @@ Eigen::Isometry3d LandmarkDatabase::anchorCameraPose(const Landmark& l) const {
   return cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_);
 }
 
+bool LandmarkDatabase::rowSupported(const DisparityHypothesis& h) const {
+  return h.row_span_px <= std::max(options_.max_row_span_px, options_.max_row_span_relative * h.d_px);
+}
+
 bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c) {
   Landmark& l = slots_[slot];
   if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
@@ -357,6 +361,7 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
     }
     if (check.discriminative) l.verified = true;
   }
+  if (l.state == LandmarkState::kCandidate && !rowSupported(h)) ++l.n_row_unsupported;
   if (l.state == LandmarkState::kCandidate) {
     // Observations feed the refinement at confirmation; a confirmed landmark keeps none.
     Observation obs;
@@ -413,6 +418,7 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
       l.evidence += static_cast<float>(missEvidence(options_.detection_prob, p.p_false_hit_per_hyp));
     } else if (contradicted_[p.slot]) {
       l.evidence += static_cast<float>(options_.contradiction_evidence);
+
     } else if (informative_[p.slot] || l.state == LandmarkState::kConfirmed) {
       l.evidence += static_cast<float>(
           hitEvidence(options_.detection_prob, p.p_false_hit_per_hyp, options_.max_hit_evidence));
@@ -464,7 +470,8 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
           prune_now = true;
         } else {
           confirm_now = (l.verified || l.rivals_at_creation == 1) && l.confidence >= options_.confirm_prob &&
-                        l.n_obs >= options_.min_observations;
+                        l.n_obs >= options_.min_observations &&
+                        l.n_row_unsupported <= options_.max_row_unsupported_fraction * l.n_obs;
         }
         break;
       }
@@ -594,6 +601,7 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       l.turn_at_anchor_rad = turn_rad_;
       l.turn_at_last_seen_rad = turn_rad_;
       l.n_obs = 1;
+      l.n_row_unsupported = rowSupported(h) ? 0 : 1;
       l.n_visible = 1;
       l.rivals_at_creation = static_cast<uint8_t>(n);
       l.prior = static_cast<float>(options_.prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);

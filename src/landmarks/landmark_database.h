@@ -70,6 +70,9 @@ struct Landmark {
   int32_t n_obs = 0;
   int32_t n_visible = 0;
   int32_t consecutive_misses = 0;
+  /// Observations (anchor included) whose hypothesis lacked row support (see
+  /// LandmarkOptions::max_row_span_px).
+  int32_t n_row_unsupported = 0;
   int32_t frames_out_of_view = 0;
   /// SVO seed (inlier-ratio policy): inverse depth along the anchor ray [1/m], its variance, the
   /// Beta parameters and the inverse-depth range.
@@ -156,6 +159,7 @@ class LandmarkDatabase {
   void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
   void associate(const StereoHypotheses& hyps, FrameReport* report);
   /// Returns false when the observation contradicts the candidate's anchor (not recorded).
+  [[nodiscard]] bool rowSupported(const DisparityHypothesis& h) const;
   bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
   /// T_w_cl of the landmark's anchor frame, from the ring of recent frames' poses when it is
   /// there (the anchor check needs it for every candidate association).

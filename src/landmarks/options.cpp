@@ -77,6 +77,11 @@ Status LandmarkOptions::validate() const {
   if (!finite_nonneg(verify_relative_offset)) return bad("verify_relative_offset", verify_relative_offset, ">= 0");
   if (!finite_nonneg(verify_chi2)) return bad("verify_chi2", verify_chi2, ">= 0");
   if (min_observations < 1) return bad("min_observations", min_observations, ">= 1");
+  if (!(max_row_span_px >= 0.0)) return bad("max_row_span_px", max_row_span_px, ">= 0");
+  if (!(max_row_span_relative >= 0.0)) return bad("max_row_span_relative", max_row_span_relative, ">= 0");
+  if (!(max_row_unsupported_fraction >= 0.0 && max_row_unsupported_fraction <= 1.0)) {
+    return bad("max_row_unsupported_fraction", max_row_unsupported_fraction, "in [0, 1]");
+  }
   if (seen_count_min < 1) return bad("seen_count_min", seen_count_min, ">= 1");
   if (!(seen_count_window_s > 0.0)) return bad("seen_count_window_s", seen_count_window_s, "> 0");
   if (!(culling_min_found_ratio >= 0.0 && culling_min_found_ratio <= 1.0)) return bad("culling_min_found_ratio", culling_min_found_ratio, "in [0, 1]");

@@ -165,6 +165,22 @@ struct LandmarkOptions {
   /// slides along the occluding contour as the robot moves) and METRICS.md leaves it without
   /// ground truth.
   bool seed_depth_edges = false;
+  /// consistency policy, row support: an observation has it when its hypothesis'
+  /// DisparityHypothesis::row_span_px (the spread of the disparities matched one row up, on the
+  /// corner's row and one row down) is at most max(max_row_span_px, max_row_span_relative * d)
+  /// [px], [-]; a candidate is confirmed only when at most max_row_unsupported_fraction of its
+  /// observations (anchor included) lacked it [-]. A wrong match (a periodic-texture alias, a
+  /// window straddling a depth edge) is seldom matched at the same disparity on the neighbouring
+  /// rows in every frame; nor is a corner on a depth edge across the rows, whose depth
+  /// METRICS.md leaves undefined (its 3x3 neighbourhood spans more than 5 % in depth). Hence
+  /// 5 %, 0.5 px for the sub-pixel noise of far points, and 0.1: no failure in up to 9
+  /// observations, one in 10-19 (a real point fails in about 2 % of frames). Measured on the
+  /// four worlds against 0, 0.05 and 0.25, against refusing to seed unsupported hypotheses and
+  /// against negative evidence per failure: docs/landmarks.md, "Row support". Hypotheses whose
+  /// frontend did not measure it (row_span_px = 0) always have it; 1 turns the rule off.
+  double max_row_span_px = 0.5;
+  double max_row_span_relative = 0.05;
+  double max_row_unsupported_fraction = 0.1;
   /// consistency policy: a confirmed landmark whose association gate holds more than one
   /// corner is not associated in that frame (it counts as unseen). After a long absence its gate,
   /// widened by odometry drift, holds several corners; taking the nearest lets the landmark live

@@ -28,6 +28,7 @@ frontend::FrontendOptions pipelineFrontendDefaults() {
   frontend::FrontendOptions options;
   options.harris.target_count = 2500;
   options.harris.max_corners = 5000;  // 2x the target, as in HarrisOptions
+  options.sad.row_support = true;     // the landmark database's seeding reads it
   return options;
 }
 namespace {
@@ -67,11 +68,11 @@ constexpr size_t fieldCount() {
 
 static_assert(fieldCount<frontend::HarrisOptions>() == 13,
               "HarrisOptions gained or lost a field: map it in visitHarris (see above)");
-static_assert(fieldCount<frontend::SalientSadOptions>() == 13,
+static_assert(fieldCount<frontend::SalientSadOptions>() == 15,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 45,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 48,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -123,6 +124,9 @@ void visitSad(O& o, V& v) {
                     "also match windows ending and starting at the corner [bool]");
   TWOCAM_CONFIG_KEY(zero_mean, "zero-mean SAD, robust to a brightness offset [bool]");
   TWOCAM_CONFIG_KEY(kernel, "SAD implementation, identical results: auto | scalar | sse2 | avx2");
+  TWOCAM_CONFIG_KEY(row_support, "match each hypothesis on the rows above and below too [bool]");
+  TWOCAM_CONFIG_KEY(row_support_radius_px,
+                    "row-support search radius around the disparity [px], in [1, 16]");
 }
 
 template <typename O, typename V>
@@ -194,6 +198,11 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(refine, "refine a landmark's depth with Ceres when confirmed [bool]");
   TWOCAM_CONFIG_KEY(seed_depth_edges,
                     "seed candidates from shifted-window (depth edge) matches [bool]");
+  TWOCAM_CONFIG_KEY(max_row_span_px,
+                    "an observation has row support when its span <= max(this, relative * d) [px]");
+  TWOCAM_CONFIG_KEY(max_row_span_relative, "relative part of that bound [-], >= 0");
+  TWOCAM_CONFIG_KEY(max_row_unsupported_fraction,
+                    "confirm only if at most this fraction of observations lacked row support [-]");
   TWOCAM_CONFIG_KEY(refine_huber, "Huber loss scale of the refinement [sigma], > 0");
   TWOCAM_CONFIG_KEY(unambiguous_confirmed_hits,
                     "consistency: a confirmed landmark with several corners in its gate is not associated [bool]");

@@ -61,6 +61,52 @@ BENCHMARK(BM_SalientSad)
     ->ArgsProduct({{250, 1000, 4000}, {0, 1}})
     ->Unit(benchmark::kMicrosecond);
 
+/// Args: {row_support}: matching at 2500 corners (the `twocam run` budget) with and without
+/// measureRowSupport afterwards, to price the row support the landmark database reads.
+void BM_SalientSadRowSupport(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const BenchStereoPair& pair = benchStereoPair();
+  const std::vector<Corner> corners = benchCorners(pair.left, 2500);
+  const frontend::SalientSadOptions options;
+  const bool rows = state.range(0) != 0;
+  StereoHypotheses out;
+  for (auto _ : state) {
+    Status s = frontend::matchSalient(pair.left, pair.right, corners, options, &out);
+    if (rows && s.isOk()) s = frontend::measureRowSupport(pair.left, pair.right, options, &out);
+    benchmark::DoNotOptimize(s);
+    benchmark::DoNotOptimize(out.hypotheses.data());
+  }
+  state.counters["corners"] = static_cast<double>(corners.size());
+  state.counters["hypotheses"] = static_cast<double>(out.hypotheses.size());
+  state.counters["ns_per_hypothesis"] = benchmark::Counter(
+      static_cast<double>(out.hypotheses.size()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_SalientSadRowSupport)->ArgNames({"rows"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+/// measureRowSupport alone on the hypotheses of 2500 corners (matched once, outside the loop).
+void BM_MeasureRowSupport(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const BenchStereoPair& pair = benchStereoPair();
+  const std::vector<Corner> corners = benchCorners(pair.left, 2500);
+  const frontend::SalientSadOptions options;
+  StereoHypotheses out;
+  if (!frontend::matchSalient(pair.left, pair.right, corners, options, &out).isOk()) {
+    state.SkipWithError("matching failed");
+    return;
+  }
+  for (auto _ : state) {
+    const Status s = frontend::measureRowSupport(pair.left, pair.right, options, &out);
+    benchmark::DoNotOptimize(s);
+    benchmark::DoNotOptimize(out.hypotheses.data());
+  }
+  state.counters["hypotheses"] = static_cast<double>(out.hypotheses.size());
+  state.counters["ns_per_hypothesis"] = benchmark::Counter(
+      static_cast<double>(out.hypotheses.size()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_MeasureRowSupport)->Unit(benchmark::kMicrosecond);
+
 /// Args: {kernel, lr_check} at 1000 corners: 1 scalar, 2 SSE2, 3 AVX2 (skipped if absent).
 void BM_SalientSadKernel(benchmark::State& state) {
   frontend::SalientSadOptions options;

@@ -218,6 +218,62 @@ TEST(LandmarkDatabase, CornersOnDepthEdgesAreNotSeededUnlessAsked) {
   }
 }
 
+TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
+  // Every hypothesis of the even world points is marked as lacking row support in every frame
+  // (as the frontend reports a match whose neighbouring rows disagree): (almost) none of them
+  // may be confirmed, while the odd points are confirmed as before; with the rule off both are.
+  const StereoRig rig = SyntheticStream::defaultRig();
+  auto run = [&rig](const LandmarkOptions& options, int* confirmed_even, int* confirmed_odd) {
+    SyntheticStream stream(rig, SyntheticStreamOptions());
+    LandmarkDatabase db(rig, options);
+    std::map<uint64_t, int32_t> anchor_point;  // id -> world point of the anchor hypothesis
+    SyntheticFrame frame;
+    FrameReport report;
+    for (int k = 0; k < 150; ++k) {
+      stream.next(&frame);
+      for (size_t j = 0; j < frame.hypotheses.hypotheses.size(); ++j) {
+        const int32_t point = frame.hypothesis_point[j];
+        frame.hypotheses.hypotheses[j].row_span_px = point >= 0 && point % 2 == 0 ? 3.0f : 0.1f;
+      }
+      ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+      for (uint64_t id : report.removed_ids) anchor_point.erase(id);
+      for (size_t i = 0; i < report.created_slots.size(); ++i) {
+        anchor_point[db.landmarks()[report.created_slots[i]].id] = frame.hypothesis_point[report.created_hypotheses[i]];
+      }
+    }
+    *confirmed_even = *confirmed_odd = 0;
+    for (const Landmark& l : db.landmarks()) {
+      if (l.state != LandmarkState::kConfirmed) continue;
+      const auto it = anchor_point.find(l.id);
+      ASSERT_NE(it, anchor_point.end());
+      if (it->second < 0) continue;
+      ++(it->second % 2 == 0 ? *confirmed_even : *confirmed_odd);
+    }
+  };
+  int even = 0;
+  int odd = 0;
+  run(LandmarkOptions(), &even, &odd);
+  // An even-point candidate can only be confirmed when at least 9 in 10 of its observations
+  // were hypotheses of other (odd) points: a track that hopped to a neighbour, which is rare.
+  EXPECT_LE(even, odd / 50);
+  EXPECT_GT(odd, 100);
+  LandmarkOptions off;
+  off.max_row_unsupported_fraction = 1.0;
+  int even_off = 0;
+  int odd_off = 0;
+  run(off, &even_off, &odd_off);
+  EXPECT_GT(even_off, 100);
+  EXPECT_NEAR(odd_off, odd, 0.2 * odd);
+  // A wider bound lets the 3 px spans pass.
+  LandmarkOptions wide;
+  wide.max_row_span_px = 5.0;
+  int even_wide = 0;
+  int odd_wide = 0;
+  run(wide, &even_wide, &odd_wide);
+  EXPECT_EQ(even_wide, even_off);
+  EXPECT_EQ(odd_wide, odd_off);
+}
+
 TEST(LandmarkDatabase, RevisitedLandmarksAreReassociatedNotDuplicated) {
   // 2000 frames = 4 laps of the circle with exact odometry: confirmed landmarks that leave the
   // view must be re-associated when they come back, so the map cannot outgrow the world.
@@ -424,6 +480,12 @@ TEST(LandmarkOptions, ValidateNamesTheKey) {
   EXPECT_TRUE(o.validate().isOk());
   o.confirm_prob = 1.5;
   EXPECT_NE(o.validate().message().find("confirm_prob"), std::string::npos);
+  o = LandmarkOptions();
+  o.max_row_unsupported_fraction = 1.5;
+  EXPECT_NE(o.validate().message().find("max_row_unsupported_fraction"), std::string::npos);
+  o = LandmarkOptions();
+  o.max_row_span_px = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(o.validate().message().find("max_row_span_px"), std::string::npos);
   Policy p;
   EXPECT_TRUE(parsePolicy("seen-count", &p).isOk());
   EXPECT_EQ(p, Policy::kSeenCount);

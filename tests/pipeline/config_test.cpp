@@ -20,9 +20,9 @@ namespace fs = std::filesystem;
 
 /// Leaf keys per section (the option structs' fields, enums included).
 constexpr int kHarrisKeys = 13;
-constexpr int kSadKeys = 13;
+constexpr int kSadKeys = 15;
 constexpr int kFrontendOwnKeys = 1;  // source
-constexpr int kLandmarkKeys = 45;
+constexpr int kLandmarkKeys = 48;
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
 
