@@ -67,6 +67,8 @@ class OccupancyMapper {
   octomap::KeyRay ray_;
   std::vector<uint64_t> end_codes_;
   std::vector<uint64_t> updates_;
+  std::vector<uint64_t> sort_scratch_;
+  std::vector<uint32_t> sort_histograms_;
 };
 
 /// Occupied voxels of any OctoMap tree by the same rule and order as
