@@ -268,6 +268,7 @@ int runRun(const RunArgs& args) {
   while ((!args.max_frames || frames < *args.max_frames) && reader->next(&frame, &read_status)) {
     if (frames == 0 && !frame.odometry) {
       odometry_mode = false;
+      pipe.skipRowSupport();
       warn(args.log_path +
            " has no odometry: running the frontend only (corners and hypotheses); the landmark database "
            "needs wheel odometry to predict where landmarks reappear, so there are no landmarks and no map");

@@ -25,6 +25,12 @@ Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
 Pipeline::Pipeline(const StereoRig& rig, const PipelineConfig& config)
     : rig_(rig), frontend_(config.frontend), db_(rig, config.landmarks), mapper_(config.mapping) {}
 
+void Pipeline::skipRowSupport() {
+  frontend::FrontendOptions options = frontend_.options();
+  options.sad.row_support = false;
+  frontend_ = frontend::Frontend(options);
+}
+
 Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out) {
   out->mapped_points_w.clear();
   out->mapped_slots.clear();
