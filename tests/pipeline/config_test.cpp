@@ -1,4 +1,5 @@
 #include "pipeline/config.h"
+#include "pipeline/pipeline.h"
 
 #include <gtest/gtest.h>
 
@@ -391,6 +392,20 @@ TEST(PipelineConfigDefaultFile, MatchesTheDefaults) {
   EXPECT_EQ(readFile(path), expected)
       << path
       << " is stale; regenerate: TWOCAM_REGENERATE_CONFIGS=1 ctest -R PipelineConfigDefaultFile";
+}
+
+TEST(Pipeline, RowSupportIsOnForRunsAndSkippedForFrontendOnlyRuns) {
+  PipelineConfig config;
+  ASSERT_TRUE(config.frontend.sad.row_support) << "twocam run's defaults measure row support";
+  const StereoRig rig;
+  ASSERT_TRUE(clampToRig(rig, &config).isOk());
+  Pipeline pipe(rig, config);
+  EXPECT_TRUE(pipe.frontend().options().sad.row_support);
+  pipe.skipRowSupport();
+  EXPECT_FALSE(pipe.frontend().options().sad.row_support);
+  // Everything else of the frontend is kept.
+  EXPECT_EQ(pipe.frontend().options().harris.target_count, config.frontend.harris.target_count);
+  EXPECT_EQ(pipe.frontend().options().sad.window_width_px, config.frontend.sad.window_width_px);
 }
 
 }  // namespace
