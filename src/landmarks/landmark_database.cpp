@@ -418,7 +418,6 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
       l.evidence += static_cast<float>(missEvidence(options_.detection_prob, p.p_false_hit_per_hyp));
     } else if (contradicted_[p.slot]) {
       l.evidence += static_cast<float>(options_.contradiction_evidence);
-
     } else if (informative_[p.slot] || l.state == LandmarkState::kConfirmed) {
       l.evidence += static_cast<float>(
           hitEvidence(options_.detection_prob, p.p_false_hit_per_hyp, options_.max_hit_evidence));

@@ -28,7 +28,7 @@ frontend::FrontendOptions pipelineFrontendDefaults() {
   frontend::FrontendOptions options;
   options.harris.target_count = 2500;
   options.harris.max_corners = 5000;  // 2x the target, as in HarrisOptions
-  options.sad.row_support = true;     // the landmark database's seeding reads it
+  options.sad.row_support = true;     // the consistency policy's confirmation reads it
   return options;
 }
 namespace {
