@@ -911,14 +911,8 @@ void shortSadCurves(const uint8_t* win_a,
 #endif
   (void)wide_loads;
   for (int t = 0; t < n; ++t) {
-    int ca = 0;
-    int cb = 0;
-    for (int i = 0; i < w; ++i) {
-      ca += std::abs(static_cast<int>(win_a[i]) - static_cast<int>(ra[t + i]));
-      cb += std::abs(static_cast<int>(win_b[i]) - static_cast<int>(rb[t + i]));
-    }
-    cost_a[t] = static_cast<uint16_t>(ca);
-    cost_b[t] = static_cast<uint16_t>(cb);
+    cost_a[t] = static_cast<uint16_t>(windowCost(win_a, ra + t, w, false));
+    cost_b[t] = static_cast<uint16_t>(windowCost(win_b, rb + t, w, false));
   }
 }
 
@@ -971,9 +965,7 @@ __attribute__((target("avx2"))) inline float rowDisparityAvx2(const uint8_t* win
   alignas(16) uint16_t c[9];
   _mm_store_si128(reinterpret_cast<__m128i*>(c), costs);  // NOLINT
   if (t == 7) {  // its upper neighbour, t = 8, is beyond sad8's lanes
-    int c8 = 0;
-    for (int i = 0; i < w; ++i) c8 += std::abs(static_cast<int>(win[i]) - static_cast<int>(rp[8 + i]));
-    c[8] = static_cast<uint16_t>(c8);
+    c[8] = static_cast<uint16_t>(windowCost(win, rp + 8, w, false));
   }
   // c[t + 1] is disparity d - 1, c[t - 1] is d + 1; t is in [1, 2R + 1], so both exist.
   return static_cast<float>(d_top - t) + parabolaOffset(c[t + 1], c[t], c[t - 1]);
