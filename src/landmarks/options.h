@@ -84,7 +84,7 @@ struct LandmarkOptions {
   /// 0.01 (1 cm, until 2026-12-02 0.04): at the worlds' 0.4 m/s a frame covers 2.7 cm at 15 Hz
   /// and 5 cm at 8 Hz, so every frame that moves counts, while standing still (or turning on
   /// the spot, which gives no parallax) still counts nothing. 0.04 counted only every other frame
-  /// at 15 Hz; 0.01 gave 11-92 % more correct landmarks in all 12 logs at strict precision within
+  /// at 15 Hz; 0.01 gave 8-92 % more correct landmarks in all 12 logs at strict precision within
   /// -0.7 / +1.0 points (docs/landmarks.md, "Evidence step").
   double evidence_step_m = 0.01;
   /// A candidate's re-observation is checked against its anchor: the anchor's triangulation,
