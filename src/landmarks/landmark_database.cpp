@@ -274,7 +274,9 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       const bool count_points = pass == 0 && options_.policy == Policy::kConsistency && options_.unambiguous_confirmed_hits;
       uint32_t first_point = UINT32_MAX;
       bool ambiguous = false;
-      for (int r = r0; r <= r1 && c0 <= c1; ++r) {
+      // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
+      // second corner (drift-widened gates of confirmed landmarks hold about 30 hypotheses).
+      for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
         const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
         for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0]; it != row_end; ++it) {
           const GridEntry& e = *it;
@@ -288,6 +290,7 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
               first_point = e.point_index;
             } else if (e.point_index != first_point) {
               ambiguous = true;
+              break;
             }
           }
           if (d2 > best_d2) continue;
