@@ -118,11 +118,16 @@ struct LandmarkOptions {
   /// squared Mahalanobis distance of at least verify_chi2 from the candidate's own prediction.
   /// Rival minima of a SAD curve lie at least 2 px apart (the frontend's minimum separation),
   /// hence 2 px; 0.2 d (a 20 % depth change) keeps near points, where 2 px is a tiny depth
-  /// change, confirmable within a metre of travel; 16 (4 sigma) puts such a phantom well outside
-  /// the 3-sigma anchor gate, so it has been contradicted rather than merely not confirmed.
+  /// change, confirmable within a metre of travel. verify_chi2 = 9.21, the anchor gate
+  /// (anchor_gate_chi2): such a phantom is now predicted where the anchor check calls it a
+  /// contradiction. 16 (4 sigma) until 2026-12-02: it asked for so much motion that on the
+  /// office world 17 297 true candidates with rivals left the view unverified, 8383 of them
+  /// at probability >= 0.9. 9.21 gave 17-44 % more correct landmarks on office, repetitive and
+  /// garden (all noise levels; lowtexture +1-3 %) at strict precision within -0.7 / +0.3 points
+  /// (docs/landmarks.md, "Verification threshold").
   double verify_min_offset_px = 2.0;
   double verify_relative_offset = 0.2;
-  double verify_chi2 = 16.0;
+  double verify_chi2 = 9.21;
   /// ... and at least this many observations [-].
   int min_observations = 4;
   /// Candidates whose probability falls below this are pruned [-].
