@@ -314,9 +314,10 @@ TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
   constexpr int kFrames = 3000;
   // Tolerances. Some duplicates remain at any time: a landmark whose gate is ambiguous is not
   // associated, its corner is confirmed afresh and the old one waits out max_confirmed_misses
-  // (measured 8.7 % with evidence counted every frame, 3.6 % when it was every other frame).
-  // What must not happen is growth: over the last 2000 frames they may rise by at most 2 % of
-  // the confirmed landmarks (measured: 104 -> 101; taking the nearest corner: 341 -> 1520).
+  // (measured 9.1 % with verify_chi2 9.21, 8.7 % with 16, 3.6 % when evidence was counted every
+  // other frame). What must not happen is growth: over the last 2000 frames they may rise by at
+  // most 2 % of the confirmed landmarks (measured: 103 -> 107; taking the nearest corner:
+  // 337 -> 1524).
   constexpr double kMaxDuplicateFraction = 0.10;
   constexpr double kMaxDuplicateGrowth = 0.02;
   const RunOutcome early = runSynthetic(so, LandmarkOptions(), kShort);
@@ -325,6 +326,10 @@ TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
   nearest.unambiguous_confirmed_hits = false;
   const RunOutcome early_without = runSynthetic(so, nearest, kShort);
   const RunOutcome without_rule = runSynthetic(so, nearest, kFrames);
+  std::printf("duplicates on the drifting stream: %d of %d confirmed at frame %d, %d of %d at frame %d; "
+              "taking the nearest corner: %d of %d, %d of %d\n",
+              early.duplicates, early.confirmed, kShort, with_rule.duplicates, with_rule.confirmed, kFrames,
+              early_without.duplicates, early_without.confirmed, without_rule.duplicates, without_rule.confirmed);
   ASSERT_GT(with_rule.confirmed, 100);
   EXPECT_LT(with_rule.duplicates, kMaxDuplicateFraction * with_rule.confirmed)
       << with_rule.duplicates << " of " << with_rule.confirmed;
