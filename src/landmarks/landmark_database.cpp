@@ -363,7 +363,13 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
       contradicted_[slot] = 1;
       return false;
     }
-    if (check.discriminative) l.verified = true;
+    // Verification: the consistent re-observations together favour this candidate over either
+    // phantom by verify_llr (docs/landmarks.md, "Verification").
+    for (int k = 0; k < 2; ++k) {
+      l.phantom_llr[k] = static_cast<float>(
+          std::min(kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
+    }
+    if (std::min(l.phantom_llr[0], l.phantom_llr[1]) >= options_.verify_llr) l.verified = true;
   }
   if (l.state == LandmarkState::kCandidate && !rowSupported(h)) ++l.n_row_unsupported;
   if (l.state == LandmarkState::kCandidate) {

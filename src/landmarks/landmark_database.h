@@ -55,11 +55,14 @@ struct Landmark {
   double path_at_last_evidence_m = 0.0;
   double path_at_anchor_m = 0.0;
   double turn_at_anchor_rad = 0.0;
-  /// Consistency policy: a re-observation has agreed with the anchor after motion that would
-  /// have exposed a rival depth (see checkAgainstAnchor).
+  /// Consistency policy: the consistent re-observations favour this candidate over the
+  /// phantoms of a rival depth by at least LandmarkOptions::verify_llr (see checkAgainstAnchor).
   bool verified = false;
   /// Number of hypotheses of the corner when the candidate was created (1 = no rivals).
   uint8_t rivals_at_creation = 1;
+  /// Consistency policy: AnchorCheck::phantom_llr summed over the consistent re-observations,
+  /// for the phantom below and above the anchor disparity [nats].
+  float phantom_llr[2] = {0.0f, 0.0f};
   /// Rival group (hypotheses of the same corner in the creating frame) and this member's prior.
   uint32_t group = 0;
   float prior = 0.0f;

@@ -113,14 +113,23 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   // the real point's row and at its disparity times d_anchor / alt.
   const double offset = std::max(options.verify_min_offset_px, options.verify_relative_offset * anchor_d_px);
   bool discriminative = true;
-  for (const double alt : {anchor_d_px - offset, anchor_d_px + offset}) {
+  const double alts[2] = {anchor_d_px - offset, anchor_d_px + offset};
+  for (int k = 0; k < 2; ++k) {
+    const double alt = alts[k];
     Eigen::Vector3d real;
+    out.phantom_llr[k] = kPhantomImpossible;
     if (!predict(alt, &real, nullptr)) continue;  // such a real point would be behind the camera
     const double du = real.x() - nominal.x();
     const double dv = real.y() - nominal.y();
     const double dd = real.z() * anchor_d_px / alt - nominal.z();
     const double m2 = dv * dv / var_v + dd * dd / var_d + (use_u ? du * du / var_u : 0.0);
     if (m2 < options.verify_chi2) discriminative = false;
+    // The observation under the phantom hypothesis against under the candidate's.
+    const double pu = u_px - real.x();
+    const double pv = v_px - real.y();
+    const double pd = d_px - real.z() * anchor_d_px / alt;
+    const double m2_phantom = pv * pv / var_v + pd * pd / var_d + (use_u ? pu * pu / var_u : 0.0);
+    out.phantom_llr[k] = 0.5 * (m2_phantom - out.mahalanobis2);
   }
   out.discriminative = discriminative;
   return out;

@@ -111,22 +111,29 @@ struct LandmarkOptions {
   /// 11 of them; 0.85 and 0.8 gave still more but let periodic-texture aliases through on the
   /// repetitive world (judged-wrong 6 at 0.9, 18 at 0.85, 35 at 0.8; docs/landmarks.md).
   double confirm_prob = 0.9;
-  /// ... and, for a candidate that had rivals when it was created, enough motion since the anchor
-  /// that a spurious match would have been exposed (a lone hypothesis needs only stability): if
-  /// the real point were on the anchor ray at disparity d +- max(verify_min_offset_px,
-  /// verify_relative_offset * d), a periodic-texture phantom of it would now be predicted at a
-  /// squared Mahalanobis distance of at least verify_chi2 from the candidate's own prediction.
-  /// Rival minima of a SAD curve lie at least 2 px apart (the frontend's minimum separation),
-  /// hence 2 px; 0.2 d (a 20 % depth change) keeps near points, where 2 px is a tiny depth
-  /// change, confirmable within a metre of travel. verify_chi2 = 9.21, the anchor gate
-  /// (anchor_gate_chi2): such a phantom is now predicted where the anchor check calls it a
-  /// contradiction. 16 (4 sigma) until 2026-12-02: it asked for so much motion that on the
-  /// office world 17 297 true candidates with rivals left the view unverified, 8383 of them
-  /// at probability >= 0.9. 9.21 gave 17-44 % more correct landmarks on office, repetitive and
-  /// garden (all noise levels; lowtexture +1-3 %) at strict precision within -0.7 / +0.3 points
-  /// (docs/landmarks.md, "Verification threshold").
+  /// ... and, for a candidate that had rivals when it was created, verification: its
+  /// re-observations must tell it from a periodic-texture phantom. Were the real point on the
+  /// anchor ray at disparity d +- max(verify_min_offset_px, verify_relative_offset * d), the
+  /// candidate (a phantom of it, its disparity a fixed multiple of the real one) would be seen
+  /// where the real point is; each consistent re-observation gives the log-likelihood ratio of
+  /// the candidate against each phantom (AnchorCheck::phantom_llr), and the candidate is
+  /// verified once their sums reach verify_llr for both [nats]: 5, a likelihood ratio of about
+  /// 150. Rival minima of a SAD curve lie at least 2 px apart (the frontend's minimum
+  /// separation), hence 2 px; 0.2 d (a 20 % depth change) keeps near points, where 2 px is a
+  /// tiny depth change, confirmable within a metre of travel. Until 2026-12-02 one observation
+  /// had to come after motion that put both phantoms verify_chi2 away (16, then 9.21 for one
+  /// day): that asked for so much motion that on the office world 17 297 true candidates with
+  /// rivals left the view unverified; summing the evidence of every observation gave 15-21 %
+  /// more correct landmarks than 9.21 on office, repetitive and garden with higher strict
+  /// precision on repetitive (docs/landmarks.md, "Verification").
   double verify_min_offset_px = 2.0;
   double verify_relative_offset = 0.2;
+  double verify_llr = 5.0;
+  /// A consistent hit counts fully (hit evidence, up to max_hit_evidence) only after motion that
+  /// would predict both phantoms at least this far away in one frame (squared Mahalanobis
+  /// distance [-]); before that it counts stability_evidence. 9.21, the anchor gate
+  /// (anchor_gate_chi2): a phantom is then predicted where the anchor check calls it a
+  /// contradiction (16 until 2026-12-02, when this also decided verification).
   double verify_chi2 = 9.21;
   /// ... and at least this many observations [-].
   int min_observations = 4;

@@ -72,7 +72,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 15,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 48,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 49,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -172,7 +172,8 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(confirm_prob, "existence probability needed to confirm [-], in (0, 1)");
   TWOCAM_CONFIG_KEY(verify_min_offset_px, "phantom disparity offset, absolute part [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
-  TWOCAM_CONFIG_KEY(verify_chi2, "phantom must be predicted this far away to confirm [-], >= 0");
+  TWOCAM_CONFIG_KEY(verify_llr, "evidence against the phantoms needed to confirm [nats], >= 0");
+  TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
   TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
   TWOCAM_CONFIG_KEY(prune_prob,
                     "candidates below this probability are pruned [-], in [0, confirm_prob)");

@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 constexpr int kHarrisKeys = 13;
 constexpr int kSadKeys = 15;
 constexpr int kFrontendOwnKeys = 1;  // source
-constexpr int kLandmarkKeys = 48;
+constexpr int kLandmarkKeys = 49;
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
 
