@@ -35,10 +35,15 @@ struct RefineOptions {
   /// Largest move of the anchor disparity the refinement may make, in disparity sigmas [-]:
   /// a refined value farther from the anchor's own measurement than this is rejected
   /// (kDisagreesWithAnchor, p_w unchanged). The anchor pixel is where the landmark is judged;
-  /// observations that disagree with it by more than 2 sigma (1 px) are more likely to carry
+  /// observations that disagree with it by more than 1 sigma (0.5 px) are more likely to carry
   /// odometry drift or a neighbouring corner than to correct it (office world: 24 of 38
-  /// wrong confirmed landmarks had a good anchor and a refinement pulled 1-2 px off).
-  double max_anchor_shift_sigmas = 2.0;
+  /// wrong confirmed landmarks had a good anchor and a refinement pulled 1-2 px off). 2 sigma
+  /// until 2026-12-02: with verification by summed evidence (more and longer tracks), 70 of the
+  /// 106 wrong landmarks of office at three times the world's odometry noise (38 of 59 at x1)
+  /// had a good anchor match and a refinement that moved them off it; at 1 sigma 71 (x3) and
+  /// 48 (x1) are wrong, 21 and 18 of them with a good anchor (docs/landmarks.md,
+  /// "Verification").
+  double max_anchor_shift_sigmas = 1.0;
   /// Noise model for weight_by_odometry (only its odom_* and disparity fields are used).
   LandmarkOptions noise_model;
 };
