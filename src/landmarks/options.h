@@ -123,9 +123,10 @@ struct LandmarkOptions {
   /// tiny depth change, confirmable within a metre of travel. Until 2026-12-02 one observation
   /// had to come after motion that put both phantoms verify_chi2 away (16, then 9.21 for one
   /// day): that asked for so much motion that on the office world 17 297 true candidates with
-  /// rivals left the view unverified; summing the evidence of every observation gave 15-21 %
-  /// more correct landmarks than 9.21 on office, repetitive and garden with higher strict
-  /// precision on repetitive (docs/landmarks.md, "Verification").
+  /// rivals left the view unverified; summing the evidence of every observation gave 5-20 %
+  /// more correct landmarks than one frame at 9.21 on the four worlds (office +15 %,
+  /// repetitive +20 %), at strict precision within -0.4 / +0.2 points (docs/landmarks.md,
+  /// "Verification").
   double verify_min_offset_px = 2.0;
   double verify_relative_offset = 0.2;
   double verify_llr = 5.0;
