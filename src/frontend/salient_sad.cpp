@@ -652,6 +652,9 @@ Status SalientSadOptions::validate() const {
   if (!std::isfinite(cost_ratio) || cost_ratio < 1.0f) {
     return fail("cost_ratio = " + std::to_string(cost_ratio) + "; must be finite and >= 1");
   }
+  if (!std::isfinite(complete_cost_ratio) || complete_cost_ratio < cost_ratio) {
+    return fail("complete_cost_ratio = " + std::to_string(complete_cost_ratio) + "; must be finite and >= cost_ratio");
+  }
   if (min_separation_px < 1) {
     return fail("min_separation_px = " + std::to_string(min_separation_px) + "; must be >= 1");
   }
@@ -724,9 +727,15 @@ Status matchSalient(const ImageU8& left,
     // Rows in the order 0, -1, +1, -2, +2, ... so that equal costs prefer small offsets.
     int num_curves = 0;
     int best = INT_MAX;
+    // A window that does not fit or a curve cut short by the image border leaves disparities
+    // unsearched: the hypotheses found are then not known to be all there are.
+    bool cut_short = false;
     for (int ri = 0; ri <= 2 * m; ++ri) {
       const int r = (ri % 2 == 1) ? -(ri + 1) / 2 : ri / 2;
-      if (v + r < 0 || v + r >= height) continue;
+      if (v + r < 0 || v + r >= height) {
+        cut_short = true;
+        continue;
+      }
       if (fused) {
         const int n = d_max - d_min + 1;
         const int span = 4 * h + 1;
@@ -766,9 +775,13 @@ Status matchSalient(const ImageU8& left,
       for (int ai = 0; ai < num_alignments; ++ai) {
         const int a = alignments[ai];
         const int start = u + a - h;  // first column of the left window
-        if (start < 0 || start + w > width) continue;
+        if (start < 0 || start + w > width) {
+          cut_short = true;
+          continue;
+        }
         // Disparities whose right window starts left of column 0 are not searched.
         const int d_hi = std::min(d_max, start);
+        if (d_hi < d_max) cut_short = true;
         if (d_hi < d_min) continue;
         Curve& curve = curves[num_curves];
         curve.row_offset_px = r;
@@ -803,12 +816,18 @@ Status matchSalient(const ImageU8& left,
     }
     const double ratio_limit = static_cast<double>(best) * options.cost_ratio;
     const int threshold = std::min(gate, static_cast<int>(std::min(ratio_limit, 1e9)));
+    // Minima up to complete_cost_ratio x the best (taken as at least 1 grey level per pixel)
+    // are looked for too: none of them may be missing from the list for it to be complete.
+    const double complete_limit =
+        std::max(ratio_limit, static_cast<double>(std::max(best, w)) * options.complete_cost_ratio);
+    const int search_limit = std::min(gate, static_cast<int>(std::min(complete_limit, 1e9)));
+    if (gate < complete_limit) cut_short = true;  // max_cost_per_px hides minima
 
     candidates.clear();
     for (int k = 0; k < num_curves; ++k) {
       const Curve& curve = curves[k];
       const uint16_t* c = curve.cost;
-      forEachLocalMinimum(c, curve.n, threshold, [&](int t) {
+      forEachLocalMinimum(c, curve.n, search_limit, [&](int t) {
         candidates.push_back({static_cast<int>(c[t]), curve.d_hi - t, t, k});
       });
     }
@@ -817,8 +836,8 @@ Status matchSalient(const ImageU8& left,
     });
 
     size_t num_chosen = 0;
+    bool dropped = false;  // a minimum that may be the real disparity is not in the list
     for (const Candidate& cand : candidates) {
-      if (num_chosen == max_k) break;
       bool distinct = true;
       for (size_t k = 0; k < num_chosen; ++k) {
         if (std::abs(cand.d_px - chosen[k].d_px) < options.min_separation_px) {
@@ -826,8 +845,25 @@ Status matchSalient(const ImageU8& left,
           break;
         }
       }
-      if (distinct) chosen[num_chosen++] = cand;
+      if (!distinct) continue;
+      if (num_chosen == max_k) {
+        dropped = true;  // no room in the list
+        break;
+      }
+      if (cand.cost > threshold) {
+        // Above the cost ratio: missing only where it continues a period of the list (a
+        // periodic texture's real disparity half a pixel off the grid, its aliases on it).
+        for (size_t i = 0; i < num_chosen && !dropped; ++i) {
+          for (size_t j = 0; j < num_chosen && !dropped; ++j) {
+            if (i != j && std::abs(cand.d_px - (2 * chosen[i].d_px - chosen[j].d_px)) <= 1) dropped = true;
+          }
+        }
+        if (dropped) break;
+        continue;
+      }
+      chosen[num_chosen++] = cand;
     }
+    point.complete = !dropped && !cut_short;
 
     for (size_t k = 0; k < num_chosen; ++k) {
       const Candidate& cand = chosen[k];

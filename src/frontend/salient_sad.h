@@ -58,6 +58,14 @@ struct SalientSadOptions {
   /// (measured on Tsukuba and Venus: 1.7-2.1 hypotheses per point, recall_at_4 higher than
   /// with 2); the landmark database, not the matcher, decides between rivals.
   float cost_ratio = 3.0f;
+  /// SalientPoint::complete is set only when no distinct local minimum costing at most
+  /// complete_cost_ratio x the best cost (the best taken as at least 1 grey level per pixel)
+  /// is missing from the list (>= cost_ratio). Twice cost_ratio: on a periodic texture with
+  /// sharp edges the true disparity can sit half a pixel off the integer grid while an alias
+  /// sits on it, and cost 3-5x as much (measured on the repetitive world's checkered end wall:
+  /// 96 against 21 for the alias); the landmark database trusts a complete list to hold the
+  /// real point.
+  float complete_cost_ratio = 6.0f;
   /// Distinct minima are at least this far apart in disparity [px] (>= 1); the cheaper one
   /// of a closer pair wins. Minima of one curve are never adjacent, so 1 merges only the same
   /// disparity found by two curves (rows, window alignments) and keeps neighbours 1 px apart:

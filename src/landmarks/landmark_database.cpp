@@ -354,7 +354,8 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
                                                  c.v_px,
                                                  h.d_px,
                                                  path_m_ - l.path_at_anchor_m,
-                                                 turn_rad_ - l.turn_at_anchor_rad);
+                                                 turn_rad_ - l.turn_at_anchor_rad,
+                                                 l.own_phantoms ? l.phantom_d_px : nullptr);
     const bool consistent = check.valid && check.mahalanobis2 <= options_.anchor_gate_chi2;
     informative_[slot] = check.discriminative ? 1 : 0;
     if (!consistent) {
@@ -613,6 +614,16 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       l.n_row_unsupported = rowSupported(h) ? 0 : 1;
       l.n_visible = 1;
       l.rivals_at_creation = static_cast<uint8_t>(n);
+      l.own_phantoms = options_.verify_own_rivals && point.complete;
+      if (l.own_phantoms) {
+        // Every hypothesis of the corner is a possible real point, also those not seeded (too
+        // near, or at zero disparity, whose phantom is then impossible).
+        for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
+          const float d = hyps.hypotheses[point.first_hypothesis + k].d_px;
+          if (d < h.d_px && d > l.phantom_d_px[0]) l.phantom_d_px[0] = d;
+          if (d > h.d_px && (l.phantom_d_px[1] == 0.0f || d < l.phantom_d_px[1])) l.phantom_d_px[1] = d;
+        }
+      }
       l.prior = static_cast<float>(options_.prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);
       l.confidence = l.prior;
       l.svo_range = static_cast<float>(1.0 / options_.min_depth_m);

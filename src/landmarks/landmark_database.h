@@ -63,6 +63,11 @@ struct Landmark {
   /// Consistency policy: AnchorCheck::phantom_llr summed over the consistent re-observations,
   /// for the phantom below and above the anchor disparity [nats].
   float phantom_llr[2] = {0.0f, 0.0f};
+  /// Consistency policy, complete hypothesis lists (LandmarkOptions::verify_own_rivals): the
+  /// disparities of the nearest rival below and above the anchor's [px], the real points those
+  /// phantoms stand for; 0 = no rival on that side. Unused (own_phantoms false) otherwise.
+  float phantom_d_px[2] = {0.0f, 0.0f};
+  bool own_phantoms = false;
   /// Rival group (hypotheses of the same corner in the creating frame) and this member's prior.
   uint32_t group = 0;
   float prior = 0.0f;

@@ -53,7 +53,8 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                                double v_px,
                                double d_px,
                                double path_m,
-                               double turn_rad) {
+                               double turn_rad,
+                               const float* phantom_d_px) {
   AnchorCheck out;
   const Eigen::Isometry3d T_cl_cla = T_cl_w * T_w_cl_anchor;
   const Eigen::Vector2d uv_a(anchor_u_px, anchor_v_px);
@@ -111,25 +112,33 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   // spurious disparity stays a fixed multiple of the real one (the period is fixed in the world),
   // so if the real point sat on the anchor ray at disparity alt, this candidate would be seen at
   // the real point's row and at its disparity times d_anchor / alt.
+  // The phantom of a real point at disparity alt: predicted where that point is, at its
+  // disparity times d_anchor / alt (false when such a real point would be behind the camera).
+  const auto phantom = [&](double alt, Eigen::Vector3d* uvd) {
+    if (!predict(alt, uvd, nullptr)) return false;
+    uvd->z() *= anchor_d_px / alt;
+    return true;
+  };
+  const auto m2_from = [&](const Eigen::Vector3d& a, double u, double v, double d) {
+    const double du = u - a.x();
+    const double dv = v - a.y();
+    const double dd = d - a.z();
+    return dv * dv / var_v + dd * dd / var_d + (use_u ? du * du / var_u : 0.0);
+  };
   const double offset = std::max(options.verify_min_offset_px, options.verify_relative_offset * anchor_d_px);
+  const double generic[2] = {anchor_d_px - offset, anchor_d_px + offset};
   bool discriminative = true;
-  const double alts[2] = {anchor_d_px - offset, anchor_d_px + offset};
   for (int k = 0; k < 2; ++k) {
-    const double alt = alts[k];
-    Eigen::Vector3d real;
     out.phantom_llr[k] = kPhantomImpossible;
-    if (!predict(alt, &real, nullptr)) continue;  // such a real point would be behind the camera
-    const double du = real.x() - nominal.x();
-    const double dv = real.y() - nominal.y();
-    const double dd = real.z() * anchor_d_px / alt - nominal.z();
-    const double m2 = dv * dv / var_v + dd * dd / var_d + (use_u ? du * du / var_u : 0.0);
-    if (m2 < options.verify_chi2) discriminative = false;
-    // The observation under the phantom hypothesis against under the candidate's.
-    const double pu = u_px - real.x();
-    const double pv = v_px - real.y();
-    const double pd = d_px - real.z() * anchor_d_px / alt;
-    const double m2_phantom = pv * pv / var_v + pd * pd / var_d + (use_u ? pu * pu / var_u : 0.0);
-    out.phantom_llr[k] = 0.5 * (m2_phantom - out.mahalanobis2);
+    Eigen::Vector3d p;
+    if (phantom(generic[k], &p)) {
+      if (m2_from(p, nominal.x(), nominal.y(), nominal.z()) < options.verify_chi2) discriminative = false;
+      // The observation under the phantom hypothesis against under the candidate's.
+      if (phantom_d_px == nullptr) out.phantom_llr[k] = 0.5 * (m2_from(p, u_px, v_px, d_px) - out.mahalanobis2);
+    }
+    if (phantom_d_px != nullptr && phantom_d_px[k] > 0.0f && phantom(phantom_d_px[k], &p)) {
+      out.phantom_llr[k] = 0.5 * (m2_from(p, u_px, v_px, d_px) - out.mahalanobis2);
+    }
   }
   out.discriminative = discriminative;
   return out;

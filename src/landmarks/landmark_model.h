@@ -75,6 +75,11 @@ struct AnchorCheck {
 /// and disparities hardly depend on it. The sigmas combine the anchor's pixel and disparity noise
 /// (propagated by re-projecting the anchor ray at d_anchor +- disparity_sigma), the observation
 /// noise, and the odometry translation and heading error since the anchor (path_m, turn_rad).
+///
+/// phantom_d_px, when given, holds the two disparities [px] (below, above the anchor's) at which
+/// the real point would sit for AnchorCheck::phantom_llr, instead of the generic offsets; a
+/// value <= 0 means no phantom on that side (its phantom_llr is kPhantomImpossible).
+/// AnchorCheck::discriminative always uses the generic offsets.
 AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                                const StereoRig& rig,
                                const Eigen::Isometry3d& T_w_cl_anchor,
@@ -86,7 +91,8 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
                                double v_px,
                                double d_px,
                                double path_m,
-                               double turn_rad);
+                               double turn_rad,
+                               const float* phantom_d_px = nullptr);
 
 /// Log-likelihood ratio [nats] of a landmark being real given that a hypothesis fell into its
 /// gate: log(detection_prob / p_false_hit), capped at max_evidence (hits are not independent).

@@ -130,6 +130,13 @@ struct LandmarkOptions {
   double verify_min_offset_px = 2.0;
   double verify_relative_offset = 0.2;
   double verify_llr = 5.0;
+  /// Verification against the corner's own rivals: when the frontend says a corner's hypothesis
+  /// list is complete (SalientPoint::complete: every minimum within its cost ratio is listed,
+  /// none cut off by the list's size or the image border), the real point, if there is one, is
+  /// among the hypotheses, so the phantoms a candidate must be told from sit at its rivals'
+  /// disparities (the nearest one below and above its own; a side without a rival needs no
+  /// evidence), as a lone hypothesis needs none at all. Incomplete lists keep the offsets above.
+  bool verify_own_rivals = true;
   /// A consistent hit counts fully (hit evidence, up to max_hit_evidence) only after motion that
   /// would predict both phantoms at least this far away in one frame (squared Mahalanobis
   /// distance [-]); before that it counts stability_evidence. 9.21, the anchor gate

@@ -68,11 +68,11 @@ constexpr size_t fieldCount() {
 
 static_assert(fieldCount<frontend::HarrisOptions>() == 13,
               "HarrisOptions gained or lost a field: map it in visitHarris (see above)");
-static_assert(fieldCount<frontend::SalientSadOptions>() == 15,
+static_assert(fieldCount<frontend::SalientSadOptions>() == 16,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 49,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 50,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -115,6 +115,7 @@ void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(row_tolerance_px, "right rows v-m..v+m are searched too [px], in [0, 8]");
   TWOCAM_CONFIG_KEY(max_hypotheses, "rival hypotheses kept per point [-], in [1, 255]");
   TWOCAM_CONFIG_KEY(cost_ratio, "keep minima costing <= cost_ratio * best cost [-], >= 1");
+  TWOCAM_CONFIG_KEY(complete_cost_ratio, "a list is complete when no minimum within this x best is left out [-], >= cost_ratio");
   TWOCAM_CONFIG_KEY(min_separation_px, "distinct minima at least this far apart [px], >= 1");
   TWOCAM_CONFIG_KEY(lr_tolerance_px, "right-to-left check tolerance [px], >= 0");
   TWOCAM_CONFIG_KEY(lr_check, "run the right-to-left check [bool]");
@@ -173,6 +174,7 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(verify_min_offset_px, "phantom disparity offset, absolute part [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
   TWOCAM_CONFIG_KEY(verify_llr, "evidence against the phantoms needed to confirm [nats], >= 0");
+  TWOCAM_CONFIG_KEY(verify_own_rivals, "complete hypothesis lists: phantoms at the rivals' disparities [bool]");
   TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
   TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
   TWOCAM_CONFIG_KEY(prune_prob,

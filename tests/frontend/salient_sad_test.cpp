@@ -131,6 +131,7 @@ TEST(SalientSadOptions, NamesTheBrokenConstraint) {
   add("max_hypotheses", [](SalientSadOptions& o) { o.max_hypotheses = 256; });
   add("cost_ratio", [](SalientSadOptions& o) { o.cost_ratio = 0.9f; });
   add("cost_ratio", [](SalientSadOptions& o) { o.cost_ratio = NAN; });
+  add("complete_cost_ratio", [](SalientSadOptions& o) { o.complete_cost_ratio = 2.0f; });
   add("min_separation_px", [](SalientSadOptions& o) { o.min_separation_px = 0; });
   add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = -1; });
   add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = 0.0f; });
@@ -322,6 +323,62 @@ TEST(SalientSad, PeriodicTextureGivesAliasesIncludingTruth) {
   }
   // Most points list all three aliases (noise may push one beyond cost_ratio now and then).
   EXPECT_GE(several, out.points.size() * 9 / 10);
+}
+
+TEST(SalientSad, CompleteFlagsOnlyListsThatHoldEveryCandidate) {
+  // A unique match with the whole range searchable: complete.
+  {
+    const cv::Mat tex = randomTexture(400, 140, 21);
+    const StereoPair pair = shiftedPair(tex, 320, 120, 17);
+    const std::vector<Corner> corners = gridCorners(80, 310, 5, 115, 7);
+    StereoHypotheses out;
+    ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, SalientSadOptions{}, &out).isOk());
+    size_t complete = 0;
+    for (const SalientPoint& p : out.points) complete += p.complete ? 1 : 0;
+    EXPECT_GE(complete, out.points.size() * 95 / 100);
+    // Corners nearer the left edge than the largest disparity: the search is cut short.
+    StereoHypotheses border;
+    ASSERT_TRUE(matchSalient(pair.left, pair.right, gridCorners(8, 60, 5, 115, 5), {}, &border).isOk());
+    for (const SalientPoint& p : border.points) EXPECT_FALSE(p.complete) << "corner u = " << p.corner.u_px;
+  }
+  // Row 40 of two unrelated textures; the left window of the corner at u = 200 is copied into
+  // the right row at disparities 29 and 47 (+2 grey: cost 22) and, 4.5x as dear (+9 grey: cost
+  // 99, beyond cost_ratio 3), at a third disparity.
+  const auto build = [](int third_d, SalientSadOptions options) {
+    cv::Mat left = randomTexture(320, 80, 41);
+    cv::Mat right = randomTexture(320, 80, 42);
+    constexpr int kU = 200;
+    constexpr int kV = 40;
+    for (const auto& [d, add] : {std::pair{29, 2}, std::pair{47, 2}, std::pair{third_d, 9}}) {
+      for (int i = -5; i <= 5; ++i) {
+        right.at<uint8_t>(kV, kU - d + i) = cv::saturate_cast<uint8_t>(left.at<uint8_t>(kV, kU + i) + add);
+      }
+    }
+    StereoHypotheses out;
+    EXPECT_TRUE(matchSalient(toImageU8(left), toImageU8(right), {{kU, kV, 1.0f}}, options, &out).isOk());
+    return out;
+  };
+  // At 11 the third copy continues the period of 29 and 47: the real disparity may be there.
+  const StereoHypotheses periodic = build(11, {});
+  ASSERT_EQ(periodic.points.size(), 1u);
+  ASSERT_EQ(periodic.points[0].num_hypotheses, 2u);
+  EXPECT_TRUE(anyWithin(periodic, periodic.points[0], 29, kTruthTolPx));
+  EXPECT_TRUE(anyWithin(periodic, periodic.points[0], 47, kTruthTolPx));
+  EXPECT_FALSE(periodic.points[0].complete);
+  // At 15 it continues nothing: the list is complete.
+  const StereoHypotheses unrelated = build(15, {});
+  ASSERT_EQ(unrelated.points[0].num_hypotheses, 2u);
+  EXPECT_TRUE(unrelated.points[0].complete);
+  // With complete_cost_ratio at cost_ratio, the dear copy is not looked for.
+  SalientSadOptions narrow;
+  narrow.complete_cost_ratio = narrow.cost_ratio;
+  EXPECT_TRUE(build(11, narrow).points[0].complete);
+  // No room for the second alias: incomplete.
+  SalientSadOptions one;
+  one.max_hypotheses = 1;
+  const StereoHypotheses truncated = build(15, one);
+  ASSERT_EQ(truncated.points[0].num_hypotheses, 1u);
+  EXPECT_FALSE(truncated.points[0].complete);
 }
 
 TEST(SalientSad, LrFlagRejectsConstructedFalseMatch) {

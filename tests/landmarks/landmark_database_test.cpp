@@ -86,6 +86,30 @@ TEST(LandmarkDatabase, ConsistencyConfirmsRealLandmarksAndRejectsRivals) {
       << out.wrong_random << " random";
 }
 
+// When the frontend says a corner's list holds every candidate disparity, a candidate needs to
+// be told only from its own rivals (LandmarkOptions::verify_own_rivals): a side without a rival
+// needs no evidence. On the synthetic stream, whose lists always hold the real match, that
+// confirms more landmarks, still all correct.
+TEST(LandmarkDatabase, CompleteListsAreVerifiedAgainstTheirOwnRivals) {
+  SyntheticStreamOptions so;
+  so.seed = 7;
+  const LandmarkOptions options;
+  const RunOutcome generic = runSynthetic(so, options, 300);
+  so.complete_lists = true;
+  const RunOutcome own = runSynthetic(so, options, 300);
+  LandmarkOptions off = options;
+  off.verify_own_rivals = false;
+  const RunOutcome ignored = runSynthetic(so, off, 300);
+  std::printf("confirmed (correct): generic phantoms %d (%d), own rivals %d (%d)\n", generic.confirmed, generic.correct,
+              own.confirmed, own.correct);
+  EXPECT_GT(own.correct, generic.correct);
+  EXPECT_GE(static_cast<double>(own.correct) / own.confirmed, kMinPrecision)
+      << "wrong: " << own.wrong_periodic << " periodic, " << own.wrong_random << " random";
+  // With the option off, the flag changes nothing.
+  EXPECT_EQ(ignored.confirmed, generic.confirmed);
+  EXPECT_EQ(ignored.correct, generic.correct);
+}
+
 TEST(LandmarkDatabase, WinnerTakesAllKeepsSpuriousBestMatches) {
   // The baseline accepts the best match at once; with rivals winning 30 % of the time its
   // precision must be clearly below the consistency policy's, or the experiment is pointless.
@@ -489,6 +513,38 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
   // The phantom's own evidence favours the real point it is a phantom of.
   EXPECT_LT(llr_phantom[0], 0.0);
   EXPECT_LT(std::min(llr_phantom[0], llr_phantom[1]), options.verify_llr);
+}
+
+// Explicit phantom disparities replace the generic offsets in phantom_llr (not in
+// discriminative); a side given none has no phantom to beat.
+TEST(LandmarkModel, OwnPhantomDisparitiesReplaceTheGenericOffsets) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  const LandmarkOptions options;
+  const Eigen::Isometry3d T_w_cl_anchor = cameraPoseInWorld(Pose2{0.0, 0.0, 0.0}, rig.T_b_cl);
+  const double u_a = 420.0;
+  const double v_a = 300.0;
+  const double d_a = 20.0;
+  const auto p = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_a);
+  ASSERT_TRUE(p.has_value());
+  const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(Pose2{0.3, 0.0, 0.0}, rig.T_b_cl).inverse();
+  Eigen::Vector3d seen;
+  ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p), &seen));
+  seen.z() += 0.2;  // a little noise, so no likelihood ratio is exactly symmetric
+  const auto check = [&](const float* phantoms) {
+    return checkAgainstAnchor(options, rig, T_w_cl_anchor, u_a, v_a, d_a, T_cl_w, seen.x(), seen.y(), seen.z(), 0.3,
+                              0.0, phantoms);
+  };
+  const AnchorCheck generic = check(nullptr);
+  const double offset = std::max(options.verify_min_offset_px, options.verify_relative_offset * d_a);
+  const float same[2] = {static_cast<float>(d_a - offset), static_cast<float>(d_a + offset)};
+  const AnchorCheck as_generic = check(same);
+  for (int k = 0; k < 2; ++k) EXPECT_NEAR(as_generic.phantom_llr[k], generic.phantom_llr[k], 1e-6);
+  const float one_far_rival[2] = {0.0f, 40.0f};
+  const AnchorCheck own = check(one_far_rival);
+  EXPECT_EQ(own.phantom_llr[0], kPhantomImpossible);           // no rival below
+  EXPECT_GT(own.phantom_llr[1], generic.phantom_llr[1]);       // a farther phantom is told apart sooner
+  EXPECT_EQ(own.discriminative, generic.discriminative);       // still the generic offsets
+  EXPECT_EQ(own.mahalanobis2, generic.mahalanobis2);
 }
 
 TEST(LandmarkModel, SvoSeedConvergesOnInliersAndDoubtsOutliers) {

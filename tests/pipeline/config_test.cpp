@@ -21,9 +21,9 @@ namespace fs = std::filesystem;
 
 /// Leaf keys per section (the option structs' fields, enums included).
 constexpr int kHarrisKeys = 13;
-constexpr int kSadKeys = 15;
+constexpr int kSadKeys = 16;
 constexpr int kFrontendOwnKeys = 1;  // source
-constexpr int kLandmarkKeys = 49;
+constexpr int kLandmarkKeys = 50;
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
 

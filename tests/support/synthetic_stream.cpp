@@ -117,6 +117,7 @@ void SyntheticStream::next(SyntheticFrame* out) {
     sp.corner = {ui, vi, 1.0f};
     sp.first_hypothesis = static_cast<uint32_t>(out->hypotheses.hypotheses.size());
     sp.num_hypotheses = static_cast<uint32_t>(n);
+    sp.complete = options_.complete_lists;
     const uint32_t point_index = static_cast<uint32_t>(out->hypotheses.points.size());
     out->hypotheses.points.push_back(sp);
     for (int k = 0; k < n; ++k) {

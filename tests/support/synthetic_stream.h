@@ -43,6 +43,9 @@ struct SyntheticStreamOptions {
   double rival_wins_prob = 0.3;
   /// Disparity search range of the simulated frontend [px].
   double max_disparity_px = 63.0;
+  /// Mark every point's hypothesis list complete (SalientPoint::complete), which is true here:
+  /// the real match is always listed.
+  bool complete_lists = false;
   uint64_t seed = 1;
 };
 
