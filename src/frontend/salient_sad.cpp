@@ -816,18 +816,13 @@ Status matchSalient(const ImageU8& left,
     }
     const double ratio_limit = static_cast<double>(best) * options.cost_ratio;
     const int threshold = std::min(gate, static_cast<int>(std::min(ratio_limit, 1e9)));
-    // Minima up to complete_cost_ratio x the best (taken as at least 1 grey level per pixel)
-    // are looked for too: none of them may be missing from the list for it to be complete.
-    const double complete_limit =
-        std::max(ratio_limit, static_cast<double>(std::max(best, w)) * options.complete_cost_ratio);
-    const int search_limit = std::min(gate, static_cast<int>(std::min(complete_limit, 1e9)));
-    if (gate < complete_limit) cut_short = true;  // max_cost_per_px hides minima
+    if (gate < ratio_limit) cut_short = true;  // max_cost_per_px hides minima within cost_ratio
 
     candidates.clear();
     for (int k = 0; k < num_curves; ++k) {
       const Curve& curve = curves[k];
       const uint16_t* c = curve.cost;
-      forEachLocalMinimum(c, curve.n, search_limit, [&](int t) {
+      forEachLocalMinimum(c, curve.n, threshold, [&](int t) {
         candidates.push_back({static_cast<int>(c[t]), curve.d_hi - t, t, k});
       });
     }
@@ -850,18 +845,34 @@ Status matchSalient(const ImageU8& left,
         dropped = true;  // no room in the list
         break;
       }
-      if (cand.cost > threshold) {
-        // Above the cost ratio: missing only where it continues a period of the list (a
-        // periodic texture's real disparity half a pixel off the grid, its aliases on it).
-        for (size_t i = 0; i < num_chosen && !dropped; ++i) {
-          for (size_t j = 0; j < num_chosen && !dropped; ++j) {
-            if (i != j && std::abs(cand.d_px - (2 * chosen[i].d_px - chosen[j].d_px)) <= 1) dropped = true;
+      chosen[num_chosen++] = cand;
+    }
+    if (!dropped && !cut_short && num_chosen >= 2) {
+      // A periodic texture's real disparity may sit half a pixel off the grid, its aliases on
+      // it, and cost up to complete_cost_ratio x the best (taken as at least 1 grey level per
+      // pixel): a local minimum that cheap where the list's period continues (2 d_i - d_j,
+      // within 1 px) and not in the list leaves it incomplete.
+      const double complete_limit = static_cast<double>(std::max(best, w)) * options.complete_cost_ratio;
+      const int limit = static_cast<int>(std::min(complete_limit, 1e9));
+      if (gate < complete_limit) dropped = true;  // max_cost_per_px could hide it
+      for (size_t i = 0; i < num_chosen && !dropped; ++i) {
+        for (size_t j = 0; j < num_chosen && !dropped; ++j) {
+          const int next = 2 * chosen[i].d_px - chosen[j].d_px;
+          if (i == j || next + 1 < d_min || next - 1 > d_max) continue;
+          bool listed = false;
+          for (size_t k = 0; k < num_chosen; ++k) listed = listed || std::abs(chosen[k].d_px - next) <= 1;
+          if (listed) continue;
+          for (int k = 0; k < num_curves && !dropped; ++k) {
+            const Curve& curve = curves[k];
+            const uint16_t* c = curve.cost;
+            for (int d = next - 1; d <= next + 1 && !dropped; ++d) {
+              const int t = curve.d_hi - d;  // cost index of disparity d
+              if (t < 0 || t >= curve.n) continue;
+              dropped = c[t] <= limit && c[t] < c[t - 1] && c[t] <= c[t + 1];
+            }
           }
         }
-        if (dropped) break;
-        continue;
       }
-      chosen[num_chosen++] = cand;
     }
     point.complete = !dropped && !cut_short;
 

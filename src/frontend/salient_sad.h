@@ -58,9 +58,10 @@ struct SalientSadOptions {
   /// (measured on Tsukuba and Venus: 1.7-2.1 hypotheses per point, recall_at_4 higher than
   /// with 2); the landmark database, not the matcher, decides between rivals.
   float cost_ratio = 3.0f;
-  /// SalientPoint::complete is set only when no distinct local minimum costing at most
+  /// SalientPoint::complete is set only when no local minimum costing at most
   /// complete_cost_ratio x the best cost (the best taken as at least 1 grey level per pixel)
-  /// is missing from the list (>= cost_ratio). Twice cost_ratio: on a periodic texture with
+  /// continues a period of the list (2 d_i - d_j, within 1 px) without being in it
+  /// (>= cost_ratio). Twice cost_ratio: on a periodic texture with
   /// sharp edges the true disparity can sit half a pixel off the integer grid while an alias
   /// sits on it, and cost 3-5x as much (measured on the repetitive world's checkered end wall:
   /// 96 against 21 for the alias); the landmark database trusts a complete list to hold the
