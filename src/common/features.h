@@ -49,10 +49,11 @@ struct SalientPoint {
   Corner corner;
   uint32_t first_hypothesis = 0;
   uint32_t num_hypotheses = 0;
-  /// True when the hypotheses are every candidate disparity the matcher found: no cheaper-than-
-  /// the-cutoff minimum was dropped for want of room (max_hypotheses) and the search was not cut
-  /// short by the image border. If any disparity of this corner is real, it is then one of the
-  /// hypotheses. False when unknown (the landmark database then assumes the worst).
+  /// True when the hypotheses are every candidate disparity the matcher found: no minimum within
+  /// its cost ratio was dropped for want of room (max_hypotheses), the search was not cut short
+  /// by the image border, and no dearer minimum continues a period of the list (see
+  /// SalientSadOptions::complete_cost_ratio). If any disparity of this corner is real, it is then
+  /// one of the hypotheses. False when unknown (the landmark database then assumes the worst).
   bool complete = false;
 };
 
