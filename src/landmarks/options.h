@@ -132,7 +132,8 @@ struct LandmarkOptions {
   double verify_llr = 5.0;
   /// Verification against the corner's own rivals: when the frontend says a corner's hypothesis
   /// list is complete (SalientPoint::complete: every minimum within its cost ratio is listed,
-  /// none cut off by the list's size or the image border), the real point, if there is one, is
+  /// none cut off by the list's size or the image border, and no dearer minimum continues the
+  /// list's period, SalientSadOptions::complete_cost_ratio), the real point, if there is one, is
   /// among the hypotheses, so the phantoms a candidate must be told from sit at its rivals'
   /// disparities (the nearest one below and above its own; a side without a rival needs no
   /// evidence), as a lone hypothesis needs none at all. Incomplete lists keep the offsets above.

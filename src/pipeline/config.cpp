@@ -115,7 +115,7 @@ void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(row_tolerance_px, "right rows v-m..v+m are searched too [px], in [0, 8]");
   TWOCAM_CONFIG_KEY(max_hypotheses, "rival hypotheses kept per point [-], in [1, 255]");
   TWOCAM_CONFIG_KEY(cost_ratio, "keep minima costing <= cost_ratio * best cost [-], >= 1");
-  TWOCAM_CONFIG_KEY(complete_cost_ratio, "a list is complete when no minimum within this x best is left out [-], >= cost_ratio");
+  TWOCAM_CONFIG_KEY(complete_cost_ratio, "an unlisted minimum within this x best that continues the list's period makes it incomplete [-], >= cost_ratio");
   TWOCAM_CONFIG_KEY(min_separation_px, "distinct minima at least this far apart [px], >= 1");
   TWOCAM_CONFIG_KEY(lr_tolerance_px, "right-to-left check tolerance [px], >= 0");
   TWOCAM_CONFIG_KEY(lr_check, "run the right-to-left check [bool]");
