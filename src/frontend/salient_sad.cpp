@@ -48,8 +48,11 @@ int16_t roundedMeanDiff(int sum_diff, int reciprocal) {
 // centre- and right-aligned windows (differences of prefixes). Zero-mean SAD has its own
 // kernels: cost[j] = sum_i |win[i] - strip[i + j] + offsets[j]|.
 
+/// Plain SAD when strip_hi is null; otherwise the distance of win[i] to the interval
+/// [strip[i + j], strip_hi[i + j]]: max(0, lo - l, l - hi) (Birchfield-Tomasi).
 void prefixScalar(const uint8_t* win,
                   const uint8_t* strip,
+                  const uint8_t* strip_hi,
                   int n,
                   const int* ends,
                   int num_ends,
@@ -60,15 +63,25 @@ void prefixScalar(const uint8_t* win,
     for (; i < ends[k]; ++i) {
       const int l = win[i];
       const uint8_t* s = strip + i;
-      for (int j = 0; j < n; ++j) acc[j] = static_cast<uint16_t>(acc[j] + std::abs(l - s[j]));
+      if (strip_hi == nullptr) {
+        for (int j = 0; j < n; ++j) acc[j] = static_cast<uint16_t>(acc[j] + std::abs(l - s[j]));
+      } else {
+        const uint8_t* t = strip_hi + i;
+        for (int j = 0; j < n; ++j) {
+          acc[j] = static_cast<uint16_t>(acc[j] + std::max({0, s[j] - l, l - t[j]}));
+        }
+      }
     }
     std::copy(acc, acc + n, outs[k]);
   }
 }
 
+/// Zero-mean cost: |l + offset - s|, or with strip_hi the distance of l + offset to the
+/// interval [strip, strip_hi].
 void zeroMeanScalar(const uint8_t* win,
                     int w,
                     const uint8_t* strip,
+                    const uint8_t* strip_hi,
                     const int16_t* offsets,
                     int n,
                     uint16_t* cost) {
@@ -76,8 +89,16 @@ void zeroMeanScalar(const uint8_t* win,
   for (int i = 0; i < w; ++i) {
     const int l = win[i];
     const uint8_t* s = strip + i;
-    for (int j = 0; j < n; ++j) {
-      cost[j] = static_cast<uint16_t>(cost[j] + std::abs(l - s[j] + offsets[j]));
+    if (strip_hi == nullptr) {
+      for (int j = 0; j < n; ++j) {
+        cost[j] = static_cast<uint16_t>(cost[j] + std::abs(l - s[j] + offsets[j]));
+      }
+    } else {
+      const uint8_t* t = strip_hi + i;
+      for (int j = 0; j < n; ++j) {
+        const int x = l + offsets[j];
+        cost[j] = static_cast<uint16_t>(cost[j] + std::max({0, s[j] - x, x - t[j]}));
+      }
     }
   }
 }
@@ -85,9 +106,12 @@ void zeroMeanScalar(const uint8_t* win,
 #if defined(__SSE2__)
 /// NC chunks of 16 disparities with the accumulators in registers; |a - b| of bytes by two
 /// saturating subtractions, widened to uint16 lanes (125 offsets x 255 < 2^15).
-template <int NC>
+/// kInterval: strip is the interval's low end and strip_hi its high end, and
+/// subs(lo, l) | subs(l, hi) is the distance to the interval (at most one term is non-zero).
+template <int NC, bool kInterval>
 inline void sse2PrefixGroup(const uint8_t* win,
                             const uint8_t* strip,
+                            const uint8_t* strip_hi,
                             const int* ends,
                             int num_ends,
                             uint16_t* const* outs,
@@ -102,7 +126,10 @@ inline void sse2PrefixGroup(const uint8_t* win,
       for (int c = 0; c < NC; ++c) {
         const __m128i s =
             _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c));  // NOLINT
-        const __m128i ad = _mm_or_si128(_mm_subs_epu8(s, b), _mm_subs_epu8(b, s));
+        const __m128i t =
+            kInterval ? _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip_hi + i + 16 * c))  // NOLINT
+                      : s;
+        const __m128i ad = _mm_or_si128(_mm_subs_epu8(s, b), _mm_subs_epu8(b, t));
         acc[2 * c] = _mm_add_epi16(acc[2 * c], _mm_unpacklo_epi8(ad, zero));
         acc[2 * c + 1] = _mm_add_epi16(acc[2 * c + 1], _mm_unpackhi_epi8(ad, zero));
       }
@@ -113,10 +140,15 @@ inline void sse2PrefixGroup(const uint8_t* win,
   }
 }
 
-/// Zero-mean variant in int16 lanes: |l - s + offset| <= 510, times W <= 63 fits.
-template <int NC>
-inline void sse2ZeroMeanGroup(
-    const uint8_t* win, int w, const uint8_t* strip, const int16_t* offsets, uint16_t* cost) {
+/// Zero-mean variant in int16 lanes: |l - s + offset| <= 510, times W <= 63 fits. kInterval:
+/// max(lo - x, x - hi, 0) with x = l + offset, strip = lo, strip_hi = hi.
+template <int NC, bool kInterval>
+inline void sse2ZeroMeanGroup(const uint8_t* win,
+                              int w,
+                              const uint8_t* strip,
+                              const uint8_t* strip_hi,
+                              const int16_t* offsets,
+                              uint16_t* cost) {
   const __m128i zero = _mm_setzero_si128();
   __m128i acc[2 * NC];
   __m128i off[2 * NC];
@@ -129,10 +161,24 @@ inline void sse2ZeroMeanGroup(
     for (int c = 0; c < NC; ++c) {
       const __m128i s =
           _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c));  // NOLINT
-      __m128i t0 = _mm_sub_epi16(_mm_add_epi16(b, off[2 * c]), _mm_unpacklo_epi8(s, zero));
-      __m128i t1 = _mm_sub_epi16(_mm_add_epi16(b, off[2 * c + 1]), _mm_unpackhi_epi8(s, zero));
-      t0 = _mm_max_epi16(t0, _mm_sub_epi16(zero, t0));
-      t1 = _mm_max_epi16(t1, _mm_sub_epi16(zero, t1));
+      const __m128i x0 = _mm_add_epi16(b, off[2 * c]);
+      const __m128i x1 = _mm_add_epi16(b, off[2 * c + 1]);
+      __m128i t0 = _mm_sub_epi16(x0, _mm_unpacklo_epi8(s, zero));
+      __m128i t1 = _mm_sub_epi16(x1, _mm_unpackhi_epi8(s, zero));
+      if constexpr (kInterval) {
+        const __m128i hi =
+            _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip_hi + i + 16 * c));  // NOLINT
+        // t = x - lo; lo - x = -t; x - hi; the largest, floored at 0.
+        t0 = _mm_max_epi16(_mm_max_epi16(_mm_sub_epi16(zero, t0),
+                                         _mm_sub_epi16(x0, _mm_unpacklo_epi8(hi, zero))),
+                           zero);
+        t1 = _mm_max_epi16(_mm_max_epi16(_mm_sub_epi16(zero, t1),
+                                         _mm_sub_epi16(x1, _mm_unpackhi_epi8(hi, zero))),
+                           zero);
+      } else {
+        t0 = _mm_max_epi16(t0, _mm_sub_epi16(zero, t0));
+        t1 = _mm_max_epi16(t1, _mm_sub_epi16(zero, t1));
+      }
       acc[2 * c] = _mm_add_epi16(acc[2 * c], t0);
       acc[2 * c + 1] = _mm_add_epi16(acc[2 * c + 1], t1);
     }
@@ -142,8 +188,10 @@ inline void sse2ZeroMeanGroup(
   }
 }
 
+template <bool kInterval>
 void prefixSse2(const uint8_t* win,
                 const uint8_t* strip,
+                const uint8_t* strip_hi,
                 int n,
                 const int* ends,
                 int num_ends,
@@ -151,45 +199,49 @@ void prefixSse2(const uint8_t* win,
   const int padded = roundUp(n, 16);
   for (int g = 0; g < padded; g += 64) {
     const uint8_t* s = strip + g;
+    const uint8_t* t = kInterval ? strip_hi + g : nullptr;
     switch (std::min(4, (padded - g) / 16)) {
       case 1:
-        sse2PrefixGroup<1>(win, s, ends, num_ends, outs, g);
+        sse2PrefixGroup<1, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
       case 2:
-        sse2PrefixGroup<2>(win, s, ends, num_ends, outs, g);
+        sse2PrefixGroup<2, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
       case 3:
-        sse2PrefixGroup<3>(win, s, ends, num_ends, outs, g);
+        sse2PrefixGroup<3, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
       default:
-        sse2PrefixGroup<4>(win, s, ends, num_ends, outs, g);
+        sse2PrefixGroup<4, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
     }
   }
 }
 
+template <bool kInterval>
 void zeroMeanSse2(const uint8_t* win,
                   int w,
                   const uint8_t* strip,
+                  const uint8_t* strip_hi,
                   const int16_t* offsets,
                   int n,
                   uint16_t* cost) {
   const int padded = roundUp(n, 16);
   for (int g = 0; g < padded; g += 64) {
     const uint8_t* s = strip + g;
+    const uint8_t* t = kInterval ? strip_hi + g : nullptr;
     const int16_t* o = offsets + g;
     switch (std::min(4, (padded - g) / 16)) {
       case 1:
-        sse2ZeroMeanGroup<1>(win, w, s, o, cost + g);
+        sse2ZeroMeanGroup<1, kInterval>(win, w, s, t, o, cost + g);
         break;
       case 2:
-        sse2ZeroMeanGroup<2>(win, w, s, o, cost + g);
+        sse2ZeroMeanGroup<2, kInterval>(win, w, s, t, o, cost + g);
         break;
       case 3:
-        sse2ZeroMeanGroup<3>(win, w, s, o, cost + g);
+        sse2ZeroMeanGroup<3, kInterval>(win, w, s, t, o, cost + g);
         break;
       default:
-        sse2ZeroMeanGroup<4>(win, w, s, o, cost + g);
+        sse2ZeroMeanGroup<4, kInterval>(win, w, s, t, o, cost + g);
         break;
     }
   }
@@ -199,9 +251,10 @@ void zeroMeanSse2(const uint8_t* win,
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
 /// NC chunks of 32 disparities. unpacklo/hi work per 128-bit lane, so acc[2c] holds
 /// disparities 0-7 and 16-23 of the chunk, acc[2c+1] 8-15 and 24-31; the stores undo it.
-template <int NC>
+template <int NC, bool kInterval>
 __attribute__((target("avx2"))) inline void avx2PrefixGroup(const uint8_t* win,
                                                             const uint8_t* strip,
+                                                            const uint8_t* strip_hi,
                                                             const int* ends,
                                                             int num_ends,
                                                             uint16_t* const* outs,
@@ -216,7 +269,14 @@ __attribute__((target("avx2"))) inline void avx2PrefixGroup(const uint8_t* win,
       for (int c = 0; c < NC; ++c) {
         const __m256i s =
             _mm256_loadu_si256(reinterpret_cast<const __m256i*>(strip + i + 32 * c));  // NOLINT
-        const __m256i ad = _mm256_sub_epi8(_mm256_max_epu8(s, b), _mm256_min_epu8(s, b));
+        __m256i ad;
+        if constexpr (kInterval) {
+          const __m256i t = _mm256_loadu_si256(
+              reinterpret_cast<const __m256i*>(strip_hi + i + 32 * c));  // NOLINT
+          ad = _mm256_or_si256(_mm256_subs_epu8(s, b), _mm256_subs_epu8(b, t));
+        } else {
+          ad = _mm256_sub_epi8(_mm256_max_epu8(s, b), _mm256_min_epu8(s, b));
+        }
         acc[2 * c] = _mm256_add_epi16(acc[2 * c], _mm256_unpacklo_epi8(ad, zero));
         acc[2 * c + 1] = _mm256_add_epi16(acc[2 * c + 1], _mm256_unpackhi_epi8(ad, zero));
       }
@@ -232,9 +292,13 @@ __attribute__((target("avx2"))) inline void avx2PrefixGroup(const uint8_t* win,
 }
 
 /// Zero-mean variant: NC chunks of 16 disparities, bytes zero-extended in order.
-template <int NC>
-__attribute__((target("avx2"))) inline void avx2ZeroMeanGroup(
-    const uint8_t* win, int w, const uint8_t* strip, const int16_t* offsets, uint16_t* cost) {
+template <int NC, bool kInterval>
+__attribute__((target("avx2"))) inline void avx2ZeroMeanGroup(const uint8_t* win,
+                                                              int w,
+                                                              const uint8_t* strip,
+                                                              const uint8_t* strip_hi,
+                                                              const int16_t* offsets,
+                                                              uint16_t* cost) {
   __m256i acc[NC];
   __m256i off[NC];
   for (int c = 0; c < NC; ++c) {
@@ -246,8 +310,15 @@ __attribute__((target("avx2"))) inline void avx2ZeroMeanGroup(
     for (int c = 0; c < NC; ++c) {
       const __m256i s = _mm256_cvtepu8_epi16(
           _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c)));  // NOLINT
-      const __m256i t = _mm256_sub_epi16(_mm256_add_epi16(b, off[c]), s);
-      acc[c] = _mm256_add_epi16(acc[c], _mm256_abs_epi16(t));
+      const __m256i x = _mm256_add_epi16(b, off[c]);
+      if constexpr (kInterval) {
+        const __m256i hi = _mm256_cvtepu8_epi16(
+            _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip_hi + i + 16 * c)));  // NOLINT
+        const __m256i d = _mm256_max_epi16(_mm256_sub_epi16(s, x), _mm256_sub_epi16(x, hi));
+        acc[c] = _mm256_add_epi16(acc[c], _mm256_max_epi16(d, _mm256_setzero_si256()));
+      } else {
+        acc[c] = _mm256_add_epi16(acc[c], _mm256_abs_epi16(_mm256_sub_epi16(x, s)));
+      }
     }
   }
   for (int c = 0; c < NC; ++c) {
@@ -255,8 +326,10 @@ __attribute__((target("avx2"))) inline void avx2ZeroMeanGroup(
   }
 }
 
+template <bool kInterval>
 __attribute__((target("avx2"))) void prefixAvx2(const uint8_t* win,
                                                 const uint8_t* strip,
+                                                const uint8_t* strip_hi,
                                                 int n,
                                                 const int* ends,
                                                 int num_ends,
@@ -264,36 +337,40 @@ __attribute__((target("avx2"))) void prefixAvx2(const uint8_t* win,
   const int padded = roundUp(n, 32);
   for (int g = 0; g < padded; g += 128) {
     const uint8_t* s = strip + g;
+    const uint8_t* t = kInterval ? strip_hi + g : nullptr;
     switch (std::min(4, (padded - g) / 32)) {
       case 1:
-        avx2PrefixGroup<1>(win, s, ends, num_ends, outs, g);
+        avx2PrefixGroup<1, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
       case 2:
-        avx2PrefixGroup<2>(win, s, ends, num_ends, outs, g);
+        avx2PrefixGroup<2, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
       case 3:
-        avx2PrefixGroup<3>(win, s, ends, num_ends, outs, g);
+        avx2PrefixGroup<3, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
       default:
-        avx2PrefixGroup<4>(win, s, ends, num_ends, outs, g);
+        avx2PrefixGroup<4, kInterval>(win, s, t, ends, num_ends, outs, g);
         break;
     }
   }
 }
 
+template <bool kInterval>
 __attribute__((target("avx2"))) void zeroMeanAvx2(const uint8_t* win,
                                                   int w,
                                                   const uint8_t* strip,
+                                                  const uint8_t* strip_hi,
                                                   const int16_t* offsets,
                                                   int n,
                                                   uint16_t* cost) {
   const int padded = roundUp(n, 32);
   for (int g = 0; g < padded; g += 64) {
+    const uint8_t* t = kInterval ? strip_hi + g : nullptr;
     // padded is a multiple of 32, so the tail group has 2 or 4 chunks of 16.
     if (padded - g >= 64) {
-      avx2ZeroMeanGroup<4>(win, w, strip + g, offsets + g, cost + g);
+      avx2ZeroMeanGroup<4, kInterval>(win, w, strip + g, t, offsets + g, cost + g);
     } else {
-      avx2ZeroMeanGroup<2>(win, w, strip + g, offsets + g, cost + g);
+      avx2ZeroMeanGroup<2, kInterval>(win, w, strip + g, t, offsets + g, cost + g);
     }
   }
 }
@@ -351,6 +428,7 @@ int costGate(const SalientSadOptions& options) {
 /// would run past the image buffer, and the zero-mean offsets.
 struct CurveScratch {
   alignas(32) uint8_t strip[kStripCapacity];
+  alignas(32) uint8_t strip_hi[kStripCapacity];
   alignas(32) int16_t offsets[kMaxPadded];
 };
 
@@ -375,22 +453,30 @@ void windowOffsets(
 /// zero-padded copy when the padded reads would run past the end of the buffer. The caller
 /// guarantees that the columns the valid lanes read exist.
 const uint8_t* stripFor(
-    const ImageU8& image, int row, int base, size_t need, CurveScratch* scratch) {
+    const ImageU8& image, int row, int base, size_t need, uint8_t* copy) {
   const size_t start = static_cast<size_t>(row) * static_cast<size_t>(image.width) + base;
   const uint8_t* strip = image.data.data() + start;
   if (start + need <= image.data.size()) return strip;
   const size_t avail = image.data.size() - start;
-  std::memcpy(scratch->strip, strip, avail);
-  std::memset(scratch->strip + avail, 0, need - avail);
-  return scratch->strip;
+  std::memcpy(copy, strip, avail);
+  std::memset(copy + avail, 0, need - avail);
+  return copy;
 }
+
+/// The image a curve's strip comes from, and its Birchfield-Tomasi intervals (lo, hi; both
+/// null for plain or zero-mean SAD). Zero-mean offsets always use the image's own pixels.
+struct StripSource {
+  const ImageU8* image = nullptr;
+  const ImageU8* lo = nullptr;
+  const ImageU8* hi = nullptr;
+};
 
 /// Runs the kernel for window `win` against columns [base, base + n + w - 1) of `image` row
 /// `row` (the caller guarantees they exist). cost[j], j < n, is valid afterwards.
 void costCurve(SadKernel kernel,
                const uint8_t* win,
                int w,
-               const ImageU8& image,
+               const StripSource& source,
                int row,
                int base,
                int n,
@@ -398,12 +484,21 @@ void costCurve(SadKernel kernel,
                CurveScratch* scratch,
                uint16_t* cost) {
   const int padded = internal::paddedLength(n, kernel);
-  const uint8_t* strip = stripFor(image, row, base, static_cast<size_t>(padded + w - 1), scratch);
+  const auto need = static_cast<size_t>(padded + w - 1);
   const int16_t* offsets = nullptr;
   if (zero_mean) {
-    windowOffsets(win, w, strip, n, padded, scratch->offsets);
+    // The means read only the n + w - 1 columns that exist.
+    const uint8_t* pixels = source.image->row(row) + base;
+    windowOffsets(win, w, pixels, n, padded, scratch->offsets);
     offsets = scratch->offsets;
   }
+  if (source.lo != nullptr) {
+    const uint8_t* lo = stripFor(*source.lo, row, base, need, scratch->strip);
+    const uint8_t* hi = stripFor(*source.hi, row, base, need, scratch->strip_hi);
+    internal::intervalCurve(kernel, win, w, lo, hi, offsets, n, cost);
+    return;
+  }
+  const uint8_t* strip = stripFor(*source.image, row, base, need, scratch->strip);
   internal::sadCurve(kernel, win, w, strip, offsets, n, cost);
 }
 
@@ -562,20 +657,69 @@ void sadPrefixCurves(SadKernel kernel,
                      const int* ends,
                      int num_ends,
                      uint16_t* const* outs) {
+  intervalPrefixCurves(kernel, win, strip, nullptr, n, ends, num_ends, outs);
+}
+
+void intervalPrefixCurves(SadKernel kernel,
+                          const uint8_t* win,
+                          const uint8_t* strip_lo,
+                          const uint8_t* strip_hi,
+                          int n,
+                          const int* ends,
+                          int num_ends,
+                          uint16_t* const* outs) {
+  const bool interval = strip_hi != nullptr;
   switch (resolveKernel(kernel)) {
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
     case SadKernel::kAvx2:
-      prefixAvx2(win, strip, n, ends, num_ends, outs);
+      if (interval) {
+        prefixAvx2<true>(win, strip_lo, strip_hi, n, ends, num_ends, outs);
+      } else {
+        prefixAvx2<false>(win, strip_lo, nullptr, n, ends, num_ends, outs);
+      }
       return;
 #endif
 #if defined(__SSE2__)
     case SadKernel::kSse2:
-      prefixSse2(win, strip, n, ends, num_ends, outs);
+      if (interval) {
+        prefixSse2<true>(win, strip_lo, strip_hi, n, ends, num_ends, outs);
+      } else {
+        prefixSse2<false>(win, strip_lo, nullptr, n, ends, num_ends, outs);
+      }
       return;
 #endif
     default:
-      prefixScalar(win, strip, n, ends, num_ends, outs);
+      prefixScalar(win, strip_lo, strip_hi, n, ends, num_ends, outs);
       return;
+  }
+}
+
+void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi) {
+  const int width = image.width;
+  const int height = image.height;
+  for (ImageU8* out : {lo, hi}) {
+    out->width = width;
+    out->height = height;
+    out->data.resize(image.data.size());
+  }
+  if (width <= 0 || height <= 0) return;
+  // half[x] = the half-pixel value between x - 1 and x (x in [1, width)); half[0] and
+  // half[width] repeat the end pixels so that they change nothing. Plain loops the compiler
+  // vectorises.
+  std::vector<uint8_t> half(static_cast<size_t>(width) + 1);
+  for (int v = 0; v < height; ++v) {
+    const uint8_t* in = image.row(v);
+    uint8_t* l = lo->data.data() + static_cast<size_t>(v) * width;
+    uint8_t* h = hi->data.data() + static_cast<size_t>(v) * width;
+    half[0] = in[0];
+    half[width] = in[width - 1];
+    for (int x = 1; x < width; ++x) {
+      half[x] = static_cast<uint8_t>((in[x - 1] + in[x] + 1) >> 1);
+    }
+    for (int x = 0; x < width; ++x) {
+      l[x] = std::min({in[x], half[x], half[x + 1]});
+      h[x] = std::max({in[x], half[x], half[x + 1]});
+    }
   }
 }
 
@@ -586,23 +730,43 @@ void sadCurve(SadKernel kernel,
               const int16_t* offsets,
               int n,
               uint16_t* cost) {
+  intervalCurve(kernel, win, w, strip, nullptr, offsets, n, cost);
+}
+
+void intervalCurve(SadKernel kernel,
+                   const uint8_t* win,
+                   int w,
+                   const uint8_t* strip_lo,
+                   const uint8_t* strip_hi,
+                   const int16_t* offsets,
+                   int n,
+                   uint16_t* cost) {
   if (offsets == nullptr) {
-    sadPrefixCurves(kernel, win, strip, n, &w, 1, &cost);
+    intervalPrefixCurves(kernel, win, strip_lo, strip_hi, n, &w, 1, &cost);
     return;
   }
+  const bool interval = strip_hi != nullptr;
   switch (resolveKernel(kernel)) {
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
     case SadKernel::kAvx2:
-      zeroMeanAvx2(win, w, strip, offsets, n, cost);
+      if (interval) {
+        zeroMeanAvx2<true>(win, w, strip_lo, strip_hi, offsets, n, cost);
+      } else {
+        zeroMeanAvx2<false>(win, w, strip_lo, nullptr, offsets, n, cost);
+      }
       return;
 #endif
 #if defined(__SSE2__)
     case SadKernel::kSse2:
-      zeroMeanSse2(win, w, strip, offsets, n, cost);
+      if (interval) {
+        zeroMeanSse2<true>(win, w, strip_lo, strip_hi, offsets, n, cost);
+      } else {
+        zeroMeanSse2<false>(win, w, strip_lo, nullptr, offsets, n, cost);
+      }
       return;
 #endif
     default:
-      zeroMeanScalar(win, w, strip, offsets, n, cost);
+      zeroMeanScalar(win, w, strip_lo, strip_hi, offsets, n, cost);
       return;
   }
 }
@@ -700,6 +864,22 @@ Status matchSalient(const ImageU8& left,
   const int alignments[3] = {0, -h, h};
   const int num_alignments = options.shiftable_windows ? 3 : 1;
 
+  // Birchfield-Tomasi: forward curves read the right image's intervals, the right-to-left
+  // check the left image's. Reused across calls on this thread (4 images' worth of bytes).
+  thread_local ImageU8 intervals[4];
+  StripSource forward{&right, nullptr, nullptr};
+  StripSource backward{&left, nullptr, nullptr};
+  if (options.birchfield_tomasi) {
+    internal::samplingIntervals(right, &intervals[0], &intervals[1]);
+    forward.lo = &intervals[0];
+    forward.hi = &intervals[1];
+    if (options.lr_check) {
+      internal::samplingIntervals(left, &intervals[2], &intervals[3]);
+      backward.lo = &intervals[2];
+      backward.hi = &intervals[3];
+    }
+  }
+
   CurveScratch scratch;
   constexpr int kMaxCurves = (2 * kMaxRowTolerance + 1) * 3;
   std::vector<uint16_t> curve_storage(static_cast<size_t>(kMaxCurves) * kCurveStride);
@@ -739,12 +919,13 @@ Status matchSalient(const ImageU8& left,
       if (fused) {
         const int n = d_max - d_min + 1;
         const int span = 4 * h + 1;
-        const uint8_t* strip =
-            stripFor(right,
-                     v + r,
-                     u - 2 * h - d_max,
-                     static_cast<size_t>(internal::paddedLength(n, kernel) + span - 1),
-                     &scratch);
+        const auto need = static_cast<size_t>(internal::paddedLength(n, kernel) + span - 1);
+        const int base = u - 2 * h - d_max;
+        const uint8_t* strip = stripFor(
+            forward.lo != nullptr ? *forward.lo : right, v + r, base, need, scratch.strip);
+        const uint8_t* strip_hi =
+            forward.hi == nullptr ? nullptr
+                                  : stripFor(*forward.hi, v + r, base, need, scratch.strip_hi);
         Curve* centre = &curves[num_curves];
         Curve* ends_at_u = &curves[num_curves + 1];
         Curve* starts_at_u = &curves[num_curves + 2];
@@ -760,7 +941,8 @@ Status matchSalient(const ImageU8& left,
         // Prefix ends: h, 2h, 2h+1 (= window ending at u), 3h+1, 4h+1.
         const int ends[5] = {h, 2 * h, 2 * h + 1, 3 * h + 1, 4 * h + 1};
         uint16_t* const outs[5] = {prefix[0], prefix[1], ends_at_u->cost, prefix[2], prefix[3]};
-        internal::sadPrefixCurves(kernel, left.row(v) + (u - 2 * h), strip, n, ends, 5, outs);
+        internal::intervalPrefixCurves(
+            kernel, left.row(v) + (u - 2 * h), strip, strip_hi, n, ends, 5, outs);
         for (int j = 0; j < n; ++j) {
           centre->cost[j] = static_cast<uint16_t>(prefix[2][j] - prefix[0][j]);
           starts_at_u->cost[j] = static_cast<uint16_t>(prefix[3][j] - prefix[1][j]);
@@ -792,7 +974,7 @@ Status matchSalient(const ImageU8& left,
         costCurve(kernel,
                   left.row(v) + start,
                   w,
-                  right,
+                  forward,
                   v + r,
                   start - d_hi,
                   curve.n,
@@ -901,7 +1083,7 @@ Status matchSalient(const ImageU8& left,
         costCurve(kernel,
                   right.row(v + curve.row_offset_px) + right_start,
                   w,
-                  left,
+                  backward,
                   v,
                   right_start + d_min,
                   back_n,
@@ -1078,8 +1260,8 @@ float rowSpan(const ImageU8& left,
   if (options.zero_mean) {
     for (int k = 0; k < 2; ++k) {
       const int right_row = static_cast<int>(right_at[k] / width);
-      costCurve(kernel, left.data.data() + left_at[k], w, right, right_row, start - d_top, n, true, scratch,
-                cost[k]);
+      costCurve(kernel, left.data.data() + left_at[k], w, StripSource{&right, nullptr, nullptr}, right_row,
+                start - d_top, n, true, scratch, cost[k]);
     }
   } else {
     const bool wide_loads = std::max(left_at[0], left_at[1]) + 16 <= size &&

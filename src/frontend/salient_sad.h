@@ -100,6 +100,15 @@ struct SalientSadOptions {
   /// cheaper; turn it on when the cameras' exposure differs (measured on Tsukuba with the
   /// right view at 0.85 x + 30: best-hypothesis recall 90.8 % against 76.5 % for plain SAD).
   bool zero_mean = false;
+  /// Sampling-insensitive cost (Birchfield and Tomasi 1998, one-sided): each left pixel is
+  /// compared with the interval its right pixel spans up to half a pixel either side (linear
+  /// interpolation), max(0, lo - l, l - hi) instead of |l - r|, so a real disparity half a
+  /// pixel off the integer grid costs about as little as one on it. The right-to-left check
+  /// uses it too (left intervals); row support and pairCorners() stay plain SAD. With
+  /// zero_mean the window means come from the pixels and the mean-shifted left pixel is
+  /// compared with the interval. false here (the papers' cost, and the matcher's stereo-eval figures);
+  /// `twocam run` turns it on (docs/frontend.md, "Sampling-insensitive cost").
+  bool birchfield_tomasi = false;
   /// Which SAD implementation to run (results are identical; see SadKernel).
   SadKernel kernel = SadKernel::kAuto;
   /// Row support (measureRowSupport): after matching, the frontend matches each hypothesis'
@@ -218,6 +227,35 @@ void sadPrefixCurves(SadKernel kernel,
                      const int* ends,
                      int num_ends,
                      uint16_t* const* outs);
+
+/// sadPrefixCurves with each strip pixel widened to an interval (Birchfield-Tomasi):
+/// outs[k][j] = sum_{i < ends[k]} max(0, strip_lo[i + j] - win[i], win[i] - strip_hi[i + j]),
+/// strip_lo <= strip_hi element-wise. strip_hi == nullptr is plain SAD against strip_lo. Reads
+/// both strips as sadPrefixCurves reads its one.
+void intervalPrefixCurves(SadKernel kernel,
+                          const uint8_t* win,
+                          const uint8_t* strip_lo,
+                          const uint8_t* strip_hi,
+                          int n,
+                          const int* ends,
+                          int num_ends,
+                          uint16_t* const* outs);
+
+/// sadCurve with each strip pixel widened to an interval [strip_lo, strip_hi] (see
+/// intervalPrefixCurves); with offsets, the distance of win[i] + offsets[j] to the interval.
+/// strip_hi == nullptr is sadCurve.
+void intervalCurve(SadKernel kernel,
+                   const uint8_t* win,
+                   int w,
+                   const uint8_t* strip_lo,
+                   const uint8_t* strip_hi,
+                   const int16_t* offsets,
+                   int n,
+                   uint16_t* cost);
+
+/// Birchfield-Tomasi intervals of every row of `image`: lo (hi) is the smallest (largest) of
+/// I(x) and the two half-pixel values (I(x) + I(x -+ 1) + 1) / 2 that exist. Resizes lo, hi.
+void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi);
 
 /// n rounded up to the kernel's vector width (kAuto resolved to the CPU's kernel).
 int paddedLength(int n, SadKernel kernel);

@@ -29,6 +29,7 @@ frontend::FrontendOptions pipelineFrontendDefaults() {
   options.harris.target_count = 2500;
   options.harris.max_corners = 5000;  // 2x the target, as in HarrisOptions
   options.sad.row_support = true;     // the consistency policy's confirmation reads it
+  options.sad.birchfield_tomasi = true;  // sampling-insensitive: docs/frontend.md
   return options;
 }
 namespace {
@@ -68,7 +69,7 @@ constexpr size_t fieldCount() {
 
 static_assert(fieldCount<frontend::HarrisOptions>() == 13,
               "HarrisOptions gained or lost a field: map it in visitHarris (see above)");
-static_assert(fieldCount<frontend::SalientSadOptions>() == 16,
+static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
@@ -124,6 +125,8 @@ void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(shiftable_windows,
                     "also match windows ending and starting at the corner [bool]");
   TWOCAM_CONFIG_KEY(zero_mean, "zero-mean SAD, robust to a brightness offset [bool]");
+  TWOCAM_CONFIG_KEY(birchfield_tomasi,
+                    "sampling-insensitive cost: distance to the right pixel's half-pixel interval [bool]");
   TWOCAM_CONFIG_KEY(kernel, "SAD implementation, identical results: auto | scalar | sse2 | avx2");
   TWOCAM_CONFIG_KEY(row_support, "match each hypothesis on the rows above and below too [bool]");
   TWOCAM_CONFIG_KEY(row_support_radius_px,

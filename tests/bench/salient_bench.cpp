@@ -58,7 +58,7 @@ void BM_SalientSad(benchmark::State& state) {
 }
 BENCHMARK(BM_SalientSad)
     ->ArgNames({"corners", "lr"})
-    ->ArgsProduct({{250, 1000, 4000}, {0, 1}})
+    ->ArgsProduct({{250, 1000, 2500, 4000}, {0, 1}})
     ->Unit(benchmark::kMicrosecond);
 
 /// Args: {row_support}: matching at 2500 corners (the `twocam run` budget) with and without
@@ -144,6 +144,20 @@ void BM_SalientSadZeroMean(benchmark::State& state) {
 BENCHMARK(BM_SalientSadZeroMean)
     ->ArgNames({"shiftable", "lr"})
     ->ArgsProduct({{0, 1}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond);
+
+/// Args: {corners, lr_check}: the sampling-insensitive (Birchfield-Tomasi) cost `twocam run`
+/// uses, including the interval images of both views it builds per call; BM_SalientSad at the
+/// same counts is plain SAD.
+void BM_SalientSadBirchfieldTomasi(benchmark::State& state) {
+  frontend::SalientSadOptions options;
+  options.birchfield_tomasi = true;
+  options.lr_check = state.range(1) != 0;
+  runSalient(state, options, static_cast<int>(state.range(0)));
+}
+BENCHMARK(BM_SalientSadBirchfieldTomasi)
+    ->ArgNames({"corners", "lr"})
+    ->ArgsProduct({{1000, 2500}, {0, 1}})
     ->Unit(benchmark::kMicrosecond);
 
 /// Args: {corners per image, row tolerance m}: Paper A pairing, right corners detected on the

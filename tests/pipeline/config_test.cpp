@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 
 /// Leaf keys per section (the option structs' fields, enums included).
 constexpr int kHarrisKeys = 13;
-constexpr int kSadKeys = 16;
+constexpr int kSadKeys = 17;
 constexpr int kFrontendOwnKeys = 1;  // source
 constexpr int kLandmarkKeys = 50;
 constexpr int kMappingKeys = 8;
