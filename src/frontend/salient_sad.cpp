@@ -703,23 +703,43 @@ void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi) {
     out->data.resize(image.data.size());
   }
   if (width <= 0 || height <= 0) return;
-  // half[x] = the half-pixel value between x - 1 and x (x in [1, width)); half[0] and
-  // half[width] repeat the end pixels so that they change nothing. Plain loops the compiler
-  // vectorises.
-  std::vector<uint8_t> half(static_cast<size_t>(width) + 1);
+  // Half-pixel value between columns a and b: (I(a) + I(b) + 1) / 2, as _mm_avg_epu8 rounds.
+  auto half = [](int a, int b) { return static_cast<uint8_t>((a + b + 1) >> 1); };
   for (int v = 0; v < height; ++v) {
     const uint8_t* in = image.row(v);
     uint8_t* l = lo->data.data() + static_cast<size_t>(v) * width;
     uint8_t* h = hi->data.data() + static_cast<size_t>(v) * width;
-    half[0] = in[0];
-    half[width] = in[width - 1];
-    for (int x = 1; x < width; ++x) {
-      half[x] = static_cast<uint8_t>((in[x - 1] + in[x] + 1) >> 1);
+    // The end columns have one half-pixel neighbour.
+    auto scalar = [&](int x) {
+      uint8_t a = in[x];
+      uint8_t b = in[x];
+      if (x > 0) {
+        a = std::min(a, half(in[x - 1], in[x]));
+        b = std::max(b, half(in[x - 1], in[x]));
+      }
+      if (x + 1 < width) {
+        a = std::min(a, half(in[x], in[x + 1]));
+        b = std::max(b, half(in[x], in[x + 1]));
+      }
+      l[x] = a;
+      h[x] = b;
+    };
+    int x = 1;
+#if defined(__SSE2__)
+    for (; x + 17 <= width; x += 16) {
+      const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x));       // NOLINT
+      const __m128i p = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x - 1));   // NOLINT
+      const __m128i n = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x + 1));   // NOLINT
+      const __m128i hp = _mm_avg_epu8(p, c);
+      const __m128i hn = _mm_avg_epu8(c, n);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(l + x),  // NOLINT
+                       _mm_min_epu8(c, _mm_min_epu8(hp, hn)));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(h + x),  // NOLINT
+                       _mm_max_epu8(c, _mm_max_epu8(hp, hn)));
     }
-    for (int x = 0; x < width; ++x) {
-      l[x] = std::min({in[x], half[x], half[x + 1]});
-      h[x] = std::max({in[x], half[x], half[x + 1]});
-    }
+#endif
+    scalar(0);
+    for (; x < width; ++x) scalar(x);
   }
 }
 

@@ -617,11 +617,15 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       l.own_phantoms = options_.verify_own_rivals && point.complete;
       if (l.own_phantoms) {
         // Every hypothesis of the corner is a possible real point, also those not seeded (too
-        // near, or at zero disparity, whose phantom is then impossible).
+        // near, or at zero disparity, whose phantom is then impossible); those within
+        // verify_same_answer_px are the candidate's own answer.
+        const auto same = static_cast<float>(options_.verify_same_answer_px);
         for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
           const float d = hyps.hypotheses[point.first_hypothesis + k].d_px;
-          if (d < h.d_px && d > l.phantom_d_px[0]) l.phantom_d_px[0] = d;
-          if (d > h.d_px && (l.phantom_d_px[1] == 0.0f || d < l.phantom_d_px[1])) l.phantom_d_px[1] = d;
+          if (d < h.d_px - same && d > l.phantom_d_px[0]) l.phantom_d_px[0] = d;
+          if (d > h.d_px + same && (l.phantom_d_px[1] == 0.0f || d < l.phantom_d_px[1])) {
+            l.phantom_d_px[1] = d;
+          }
         }
       }
       l.prior = static_cast<float>(options_.prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);

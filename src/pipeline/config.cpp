@@ -73,7 +73,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 50,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 51,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -178,6 +178,7 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
   TWOCAM_CONFIG_KEY(verify_llr, "evidence against the phantoms needed to confirm [nats], >= 0");
   TWOCAM_CONFIG_KEY(verify_own_rivals, "complete hypothesis lists: phantoms at the rivals' disparities [bool]");
+  TWOCAM_CONFIG_KEY(verify_same_answer_px, "own rivals this near the candidate's disparity are the same answer [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
   TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
   TWOCAM_CONFIG_KEY(prune_prob,

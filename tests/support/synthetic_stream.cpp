@@ -96,9 +96,14 @@ void SyntheticStream::next(SyntheticFrame* out) {
       float cost;
       uint8_t kind;
     };
-    Cand cands[3];
+    Cand cands[4];
     int n = 0;
     cands[n++] = {static_cast<float>(d + options_.disparity_sigma_px * normal(rng_)), true, 0.0f, 0};
+    // Drawn only when asked for, so that streams without twins stay as they were.
+    if (options_.twin_prob > 0.0 && unit(rng_) < options_.twin_prob) {
+      const double offset = (unit(rng_) < 0.5 ? -1.0 : 1.0) * 0.6 * unit(rng_);
+      cands[n++] = {static_cast<float>(cands[0].d + offset), true, 0.0f, 0};
+    }
     if (period_m_[i] > 0.0) {
       const double d_wrong = d + rig_.fx_px * period_m_[i] / p.z();
       if (d_wrong <= options_.max_disparity_px) cands[n++] = {static_cast<float>(d_wrong), false, 0.0f, 1};

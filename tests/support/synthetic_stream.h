@@ -46,6 +46,10 @@ struct SyntheticStreamOptions {
   /// Mark every point's hypothesis list complete (SalientPoint::complete), which is true here:
   /// the real match is always listed.
   bool complete_lists = false;
+  /// Probability that the real match is listed twice, the twin up to 0.6 px away: one
+  /// disparity found by two of the frontend's cost curves (window alignments) as integer
+  /// minima 1 px apart [-]. The twin counts as real (it is within 1 px of the truth).
+  double twin_prob = 0.0;
   uint64_t seed = 1;
 };
 
