@@ -581,6 +581,15 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       const DisparityHypothesis& h = hyps.hypotheses[j];
       if (!(h.d_px > 0.0f) || fb / h.d_px < options_.min_depth_m) continue;
       if (options_.policy == Policy::kWtaLrc && (h.rank != 0 || !h.lr_consistent)) continue;
+      if (options_.policy == Policy::kConsistency) {
+        // A cheaper hypothesis within same_answer_px stands for this one: the same answer,
+        // which as a rival would take half the belief and never be told apart by motion.
+        bool twin = false;
+        for (int i = 0; i < n; ++i) {
+          twin = twin || std::abs(hyps.hypotheses[chosen[i]].d_px - h.d_px) <= options_.same_answer_px;
+        }
+        if (twin) continue;
+      }
       chosen[n++] = j;
     }
     if (n == 0) continue;
@@ -618,8 +627,8 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       if (l.own_phantoms) {
         // Every hypothesis of the corner is a possible real point, also those not seeded (too
         // near, or at zero disparity, whose phantom is then impossible); those within
-        // verify_same_answer_px are the candidate's own answer.
-        const auto same = static_cast<float>(options_.verify_same_answer_px);
+        // same_answer_px are the candidate's own answer.
+        const auto same = static_cast<float>(options_.same_answer_px);
         for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
           const float d = hyps.hypotheses[point.first_hypothesis + k].d_px;
           if (d < h.d_px - same && d > l.phantom_d_px[0]) l.phantom_d_px[0] = d;

@@ -77,8 +77,8 @@ Status LandmarkOptions::validate() const {
   if (!finite_nonneg(verify_relative_offset)) return bad("verify_relative_offset", verify_relative_offset, ">= 0");
   if (!finite_nonneg(verify_chi2)) return bad("verify_chi2", verify_chi2, ">= 0");
   if (!finite_nonneg(verify_llr)) return bad("verify_llr", verify_llr, ">= 0");
-  if (!finite_nonneg(verify_same_answer_px)) {
-    return bad("verify_same_answer_px", verify_same_answer_px, ">= 0");
+  if (!finite_nonneg(same_answer_px)) {
+    return bad("same_answer_px", same_answer_px, ">= 0");
   }
   if (min_observations < 1) return bad("min_observations", min_observations, ">= 1");
   if (!(max_row_span_px >= 0.0)) return bad("max_row_span_px", max_row_span_px, ">= 0");

@@ -138,13 +138,16 @@ struct LandmarkOptions {
   /// disparities (the nearest one below and above its own; a side without a rival needs no
   /// evidence), as a lone hypothesis needs none at all. Incomplete lists keep the offsets above.
   bool verify_own_rivals = true;
-  /// Own rivals within this many px of the candidate's disparity are the same answer, not a
-  /// phantom (METRICS.md's truth tolerance is 1 px), and are passed over for the next rival on
-  /// that side [px], >= 0. Two curves (window alignments) often find one disparity as integer
-  /// minima 1 px apart whose sub-pixel fits lie 0.0-0.6 px apart: no motion tells them apart,
-  /// so such a candidate never verified (office x1, 2026-12-02: 3509 true candidates with
-  /// probability >= 0.9 left the view so, against 14 wrong ones). 0 verifies against them.
-  double verify_same_answer_px = 1.0;
+  /// Hypotheses of one corner within this many px of each other are the same answer
+  /// (METRICS.md's truth tolerance is 1 px) [px], >= 0. The frontend's cost curves (window
+  /// alignments) often find one disparity as integer minima 1 px apart whose sub-pixel fits
+  /// lie 0.0-0.6 px apart; no motion tells them apart. So (consistency policy) only the
+  /// cheapest of them is seeded, and a candidate's own-rival phantoms pass over them for the
+  /// next rival on that side. Before (office x1, 2026-12-02) 3509 true candidates with
+  /// probability >= 0.9 left the view unverified for such a twin, against 14 wrong ones, and
+  /// twins split the belief of one point. 0 seeds and verifies against every hypothesis. The
+  /// baselines seed every hypothesis whatever this says (their published rules).
+  double same_answer_px = 1.0;
   /// A consistent hit counts fully (hit evidence, up to max_hit_evidence) only after motion that
   /// would predict both phantoms at least this far away in one frame (squared Mahalanobis
   /// distance [-]); before that it counts stability_evidence. 9.21, the anchor gate

@@ -178,7 +178,7 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
   TWOCAM_CONFIG_KEY(verify_llr, "evidence against the phantoms needed to confirm [nats], >= 0");
   TWOCAM_CONFIG_KEY(verify_own_rivals, "complete hypothesis lists: phantoms at the rivals' disparities [bool]");
-  TWOCAM_CONFIG_KEY(verify_same_answer_px, "own rivals this near the candidate's disparity are the same answer [px], >= 0");
+  TWOCAM_CONFIG_KEY(same_answer_px, "hypotheses of a corner this near each other are one answer [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
   TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
   TWOCAM_CONFIG_KEY(prune_prob,

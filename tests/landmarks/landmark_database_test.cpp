@@ -73,9 +73,9 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options, const Land
 
 // Precision the consistency policy must reach on the synthetic stream (issue: >= 99.5 % on office).
 constexpr double kMinPrecision = 0.995;
-/// Twins as each other's phantoms verify only where a lucky sub-pixel spread lets motion
-/// separate them; as one answer they confirm like single matches (measured on seed 7: 2261
-/// correct against 103; the margin keeps the test about the rule, not the stream's figures).
+/// Twins as rivals split one point's belief and verify only where a lucky sub-pixel spread lets
+/// motion separate them; as one answer they confirm like single matches (measured on seed 7:
+/// 2629 correct against 103; the margin keeps the test about the rule, not the stream's figures).
 constexpr double kMinTwinGain = 5.0;
 
 TEST(LandmarkDatabase, ConsistencyConfirmsRealLandmarksAndRejectsRivals) {
@@ -115,8 +115,8 @@ TEST(LandmarkDatabase, CompleteListsAreVerifiedAgainstTheirOwnRivals) {
 }
 
 // A disparity the frontend lists twice (two cost curves, sub-pixel fits up to 0.6 px apart) is
-// one answer: no motion can tell the twins apart, so they must not be each other's phantom
-// (LandmarkOptions::verify_same_answer_px).
+// one answer (LandmarkOptions::same_answer_px): seeded once, and never a phantom to be told
+// apart by motion, which cannot.
 TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   SyntheticStreamOptions so;
   so.seed = 7;
@@ -125,7 +125,7 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   const LandmarkOptions options;
   const RunOutcome same = runSynthetic(so, options, 300);
   LandmarkOptions strict = options;
-  strict.verify_same_answer_px = 0.0;
+  strict.same_answer_px = 0.0;
   const RunOutcome apart = runSynthetic(so, strict, 300);
   std::printf("every real match listed twice, confirmed (correct): twins the same answer %d (%d), "
               "twins as phantoms %d (%d)\n",
@@ -643,8 +643,8 @@ TEST(LandmarkOptions, ValidateNamesTheKey) {
   o.max_row_span_px = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(o.validate().message().find("max_row_span_px"), std::string::npos);
   o = LandmarkOptions();
-  o.verify_same_answer_px = -0.5;
-  EXPECT_NE(o.validate().message().find("verify_same_answer_px"), std::string::npos);
+  o.same_answer_px = -0.5;
+  EXPECT_NE(o.validate().message().find("same_answer_px"), std::string::npos);
   Policy p;
   EXPECT_TRUE(parsePolicy("seen-count", &p).isOk());
   EXPECT_EQ(p, Policy::kSeenCount);
