@@ -560,34 +560,22 @@ TEST(SalientSad, ZeroMeanHandlesGainAndOffset) {
   StereoPair pair = shiftedPair(tex, 320, 120, kD);
   for (uint8_t& px : pair.right.data) px = cv::saturate_cast<uint8_t>(kGain * px + kOffset);
   const std::vector<Corner> corners = gridCorners(80, 310, 5, 115, 5);
-  SalientSadOptions options;
-  StereoHypotheses plain;
-  ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &plain).isOk());
-  options.zero_mean = true;
-  StereoHypotheses zero_mean;
-  ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &zero_mean).isOk());
-  const double plain_pct = bestCorrectPct(plain, kD);
-  const double zero_mean_pct = bestCorrectPct(zero_mean, kD);
-  std::printf("[ gain/offset ] best within 1 px: plain SAD %.1f %%, zero-mean SAD %.1f %%\n",
-              plain_pct,
-              zero_mean_pct);
-  EXPECT_GE(zero_mean_pct, 99.0);
-  EXPECT_LT(plain_pct, zero_mean_pct - 10.0);
-  // The same with the sampling-insensitive cost (`twocam run`'s): zero-mean keeps its gain.
-  options.birchfield_tomasi = true;
-  options.zero_mean = false;
-  StereoHypotheses bt_plain;
-  ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &bt_plain).isOk());
-  options.zero_mean = true;
-  StereoHypotheses bt_zero_mean;
-  ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &bt_zero_mean).isOk());
-  const double bt_plain_pct = bestCorrectPct(bt_plain, kD);
-  const double bt_zero_mean_pct = bestCorrectPct(bt_zero_mean, kD);
-  std::printf("[ gain/offset ] Birchfield-Tomasi: plain %.1f %%, zero-mean %.1f %%\n",
-              bt_plain_pct,
-              bt_zero_mean_pct);
-  EXPECT_GE(bt_zero_mean_pct, 99.0);
-  EXPECT_LT(bt_plain_pct, bt_zero_mean_pct - 10.0);
+  // Plain SAD, then the sampling-insensitive cost (`twocam run`'s): zero-mean helps both.
+  for (const bool interval : {false, true}) {
+    double pct[2];  // plain, zero-mean
+    for (const bool zero_mean : {false, true}) {
+      SalientSadOptions options;
+      options.birchfield_tomasi = interval;
+      options.zero_mean = zero_mean;
+      StereoHypotheses out;
+      ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &out).isOk());
+      pct[zero_mean ? 1 : 0] = bestCorrectPct(out, kD);
+    }
+    std::printf("[ gain/offset ] %s: best within 1 px: plain %.1f %%, zero-mean %.1f %%\n",
+                interval ? "Birchfield-Tomasi" : "SAD", pct[0], pct[1]);
+    EXPECT_GE(pct[1], 99.0) << "interval " << interval;
+    EXPECT_LT(pct[0], pct[1] - 10.0) << "interval " << interval;
+  }
 }
 
 TEST(SalientSad, SkipsCornersOutsideTheWindowAndReusesCapacity) {
