@@ -21,7 +21,8 @@ struct Corner {
 struct DisparityHypothesis {
   /// Sub-pixel disparity [px] (parabola fit around the integer minimum).
   float d_px = 0.0f;
-  /// Matching cost at the integer minimum: SAD summed over the window [grey levels].
+  /// Matching cost at the integer minimum, summed over the window [grey levels]: SAD, or the
+  /// Birchfield-Tomasi interval cost when the matcher used it (SalientSadOptions).
   float cost = 0.0f;
   /// Index of the salient point this hypothesis belongs to (StereoHypotheses::points).
   uint32_t point_index = 0;

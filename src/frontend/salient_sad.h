@@ -137,7 +137,7 @@ struct SalientSadOptions {
 ///
 /// Per hypothesis: d_px is the integer minimum refined by a parabola through the costs at
 /// d-1, d, d+1 of the same curve, i.e. row and window alignment (|offset| <= 0.5; integer at
-/// the ends of the searched range); cost is that window's SAD [grey levels] at the integer
+/// the ends of the searched range); cost is that window's SAD (or interval cost, birchfield_tomasi) [grey levels] at the integer
 /// minimum; row_offset_px is r. Equal costs prefer small |r| (then r < 0), then the centred
 /// window, then small d.
 ///
