@@ -120,6 +120,7 @@ int runStereoEval(const StereoEvalArgs& args) {
     frontend::SalientSadOptions sad;
     sad.max_disparity_px = args.max_disp;
     if (args.window_px > 0) sad.window_width_px = args.window_px;
+    sad.birchfield_tomasi = args.birchfield_tomasi;
     if (Status s = harris.validate(); !s) return fail(s.message());
     if (Status s = sad.validate(); !s) return fail(s.message());
     if (args.max_disp + sad.window_width_px > left.width) return fail("--max-disp plus the window is wider than the image");

@@ -26,6 +26,8 @@ struct StereoEvalArgs {
   /// Also drop pixels the right camera cannot see, derived from the ground truth
   /// (eval::nonOccludedMask); combined with --mask when both are given.
   bool exclude_occluded = false;
+  /// Salient mode: Birchfield-Tomasi interval cost instead of SAD (SalientSadOptions).
+  bool birchfield_tomasi = false;
 };
 
 int runStereoEval(const StereoEvalArgs& args);

@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   stereo_eval->add_option("--image", se.output_image, "Write a picture of disparities and errors (PNG)");
   stereo_eval->add_option("--window", se.window_px, "Window width [px] (default: dense 7, salient 11)");
   stereo_eval->add_flag("--exclude-occluded", se.exclude_occluded, "Evaluate only pixels the right camera sees (occlusion derived from the ground truth; for sets without nonocc masks)");
+  stereo_eval->add_flag("--birchfield-tomasi", se.birchfield_tomasi, "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
   stereo_eval->add_option("--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
 
   twocam::tools::RunArgs run;

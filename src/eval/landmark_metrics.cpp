@@ -233,7 +233,9 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
   s << i1 << "\"frontend\": {\"recall_at_k\": " << num(f.recall_at_k) << ", \"recall_at_1\": " << num(f.recall_at_1)
     << ", \"bad1\": " << num(f.bad1) << ", \"bad2\": " << num(f.bad2) << ", \"avgerr\": " << num(f.avgerr)
     << ", \"density\": " << num(f.density) << ", \"k\": " << f.k << ", \"mean_hypotheses\": " << num(f.mean_hypotheses)
-    << ", \"points\": " << f.points << ", \"evaluated\": " << f.evaluated << "},\n";
+    << ", \"points\": " << f.points << ", \"evaluated\": " << f.evaluated
+    << ", \"one_answer_fraction\": " << num(f.one_answer_fraction)
+    << ", \"one_answer_precision\": " << num(f.one_answer_precision) << "},\n";
   s << i1 << "\"landmarks\": {\n";
   s << i2 << "\"precision\": " << num(m.precision) << ",\n";
   s << i2 << "\"precision_judged\": " << num(m.precision_judged) << ",\n";

@@ -169,6 +169,8 @@ Status tallySalient(const StereoHypotheses& hyps,
   int64_t recalled_k = 0;
   int64_t recalled_1 = 0;
   int64_t hypotheses_sum = 0;
+  int64_t one_answer = 0;
+  int64_t one_answer_true = 0;
   const int w = gt.d_px.width;
   const int h = gt.d_px.height;
   for (size_t i = 0; i < hyps.points.size(); ++i) {
@@ -225,6 +227,15 @@ Status tallySalient(const StereoHypotheses& hyps,
     if (best == nullptr || !std::isfinite(best->d_px)) continue;
     const double err = std::abs(static_cast<double>(best->d_px) - gt.d_px(u, v));
     recalled_1 += err <= options.recall_tol_px ? 1 : 0;
+    bool single = true;
+    for (uint64_t j = p.first_hypothesis; j < end; ++j) {
+      const float d = hyps.hypotheses[j].d_px;
+      single = single && std::isfinite(d) && std::abs(static_cast<double>(d) - best->d_px) <= options.recall_tol_px;
+    }
+    if (single) {
+      ++one_answer;
+      one_answer_true += err <= options.recall_tol_px ? 1 : 0;
+    }
     const bool unambiguous =
         static_cast<double>(consistent_max) - best->d_px <= options.recall_tol_px &&
         static_cast<double>(best->d_px) - consistent_min <= options.recall_tol_px;
@@ -245,6 +256,8 @@ Status tallySalient(const StereoHypotheses& hyps,
   sum.recalled_k += recalled_k;
   sum.recalled_1 += recalled_1;
   sum.hypotheses += hypotheses_sum;
+  sum.one_answer += one_answer;
+  sum.one_answer_true += one_answer_true;
   *out = sum;
   return Status::ok();
 }
@@ -264,6 +277,8 @@ StereoMetrics SalientTally::metrics() const {
   m.mean_hypotheses =
       evaluated > 0 ? static_cast<double>(hypotheses) / static_cast<double>(evaluated) : kNaN;
   m.points = points;
+  m.one_answer_fraction = percent(one_answer, evaluated);
+  m.one_answer_precision = percent(one_answer_true, one_answer);
   return m;
 }
 
@@ -316,6 +331,8 @@ std::string toJson(const StereoMetrics& m, const std::string& indent) {
   number("mean_hypotheses", m.mean_hypotheses);
   integer("evaluated", m.evaluated);
   integer("estimated", m.estimated);
+  number("one_answer_fraction", m.one_answer_fraction);
+  number("one_answer_precision", m.one_answer_precision);
   out += "\n";
   out += indent;
   out += "}";

@@ -20,6 +20,7 @@
 /// A ratio with a zero denominator is NaN (written as JSON null).
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "common/features.h"
@@ -72,6 +73,14 @@ struct StereoMetrics {
   /// Mean number of hypotheses per evaluated point, all ranks and consistencies (salient).
   /// Dense: a pixel carries one estimate or none, so this is estimated / evaluated.
   double mean_hypotheses = 0.0;
+  /// Salient: percent of evaluated points whose hypotheses all lie within recall_tol_px of the
+  /// best one, so that they give one answer (the landmark database seeds such a point as a lone
+  /// candidate, without rivals). Dense: NaN.
+  double one_answer_fraction = std::numeric_limits<double>::quiet_NaN();
+  /// Salient: percent of those one-answer points whose best hypothesis is within recall_tol_px
+  /// of the ground truth: how often a lone candidate is real (docs/landmarks.md, prior_real_lone).
+  /// Dense: NaN.
+  double one_answer_precision = std::numeric_limits<double>::quiet_NaN();
   /// Items offered: pixels of the map (dense) or salient points detected (salient).
   int64_t points = 0;
   /// Items evaluated: valid ground truth, inside mask and border (denominator of percentages).
@@ -118,6 +127,8 @@ struct SalientTally {
   int64_t recalled_k = 0;    ///< evaluated points with a true hypothesis among rank < k
   int64_t recalled_1 = 0;    ///< evaluated points whose best hypothesis is true
   int64_t hypotheses = 0;    ///< hypotheses of the evaluated points
+  int64_t one_answer = 0;    ///< evaluated points whose hypotheses all lie within recall_tol_px of the best
+  int64_t one_answer_true = 0;  ///< of those, points whose best hypothesis is true
   double abs_err_sum = 0.0;  ///< sum of |d - d_gt| over estimated points [px]
 
   /// The metrics of these counts (ms and s_per_mp left 0).
@@ -138,7 +149,7 @@ void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics);
 
 /// The metrics as a JSON object with METRICS.md's keys first, in this fixed order:
 /// bad1, bad2, avgerr, density, recall_at_k, points, ms, s_per_mp, then k, recall_at_1,
-/// mean_hypotheses, evaluated, estimated. Doubles are written with 6 decimals (locale
+/// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision. Doubles are written with 6 decimals (locale
 /// independent), NaN and infinities as null. `indent` prefixes every line after the first so
 /// the object can be nested in a larger file; no trailing newline.
 std::string toJson(const StereoMetrics& metrics, const std::string& indent = "");

@@ -233,6 +233,21 @@ TEST(EvaluateSalient, HandBuiltHypothesesGiveHandComputedMetrics) {
   EXPECT_NEAR(m.recall_at_k, 100.0 * 4 / 6, kPercentTol);  // p0 p1 p2 p6 (p5's true one is rank 4)
   EXPECT_NEAR(m.recall_at_1, 100.0 * 3 / 6, kPercentTol);  // p0 p2 p6
   EXPECT_NEAR(m.mean_hypotheses, (1 + 2 + 1 + 0 + 5 + 1) / 6.0, kPercentTol);
+  // One answer: p0 p2 p6 (p1 and p5 have rivals over 1 px away, p3 has none), all true.
+  EXPECT_NEAR(m.one_answer_fraction, 100.0 * 3 / 6, kPercentTol);
+  EXPECT_NEAR(m.one_answer_precision, 100.0, kPercentTol);
+}
+
+TEST(EvaluateSalient, OneAnswerCountsTwinsAsOneAndJudgesTheBest) {
+  SalientCase c{flatGroundTruth(20, 10, 6.0f), {}};
+  addPoint(&c.hyps, 5, 5, {{6.4f, 0, true}, {5.6f, 1, true}});   // twins 0.8 px apart, true
+  addPoint(&c.hyps, 6, 5, {{9.0f, 0, true}});                    // lone, 3 px off
+  addPoint(&c.hyps, 7, 5, {{6.0f, 0, true}, {8.5f, 1, false}});  // a rival 2.5 px away
+  addPoint(&c.hyps, 8, 5, {{10.0f, 0, true}, {10.9f, 1, true}}); // twins, both wrong
+  StereoMetrics m;
+  ASSERT_TRUE(evaluateSalient(c.hyps, c.gt, nullptr, StereoEvalOptions{}, &m).isOk());
+  EXPECT_NEAR(m.one_answer_fraction, 100.0 * 3 / 4, kPercentTol);
+  EXPECT_NEAR(m.one_answer_precision, 100.0 * 1 / 3, kPercentTol);
 }
 
 TEST(EvaluateSalient, KBorderAndMaskChangeWhatCounts) {
@@ -323,7 +338,8 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
   EXPECT_NE(json.find("\"points\": 110592,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"ms\": 11.059200,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"s_per_mp\": 0.100000,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"estimated\": 0\n}"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"estimated\": 0,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"one_answer_precision\": null\n}"), std::string::npos) << json;
   size_t last = 0;
   for (const char* key : {"bad1",
                           "bad2",
@@ -337,7 +353,9 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
                           "recall_at_1",
                           "mean_hypotheses",
                           "evaluated",
-                          "estimated"}) {
+                          "estimated",
+                          "one_answer_fraction",
+                          "one_answer_precision"}) {
     const size_t at = json.find(std::string("\"") + key + "\":");
     ASSERT_NE(at, std::string::npos) << key;
     EXPECT_GT(at, last) << key << " out of order";
