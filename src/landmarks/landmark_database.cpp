@@ -444,7 +444,7 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
     if (l.group == 0) {
       // A confirmed landmark (no rivals left): plain log-odds with its prior.
       const double mass = l.prior * std::exp(static_cast<double>(l.evidence));
-      l.confidence = static_cast<float>(mass / (mass + (1.0 - options_.prior_real)));
+      l.confidence = static_cast<float>(mass / (mass + noneMass(l.rivals_at_creation)));
     }
   }
   for (uint32_t g : groups_touched_) {
@@ -596,7 +596,9 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
     double weight_sum = 0.0;
     for (int i = 0; i < n; ++i) weight_sum += hyps.hypotheses[chosen[i]].lr_consistent ? 2.0 : 1.0;
     const uint32_t g = options_.policy == Policy::kConsistency ? allocateGroup() + 1 : 0;
-    if (g != 0) groups_[g - 1].none_mass = 1.0 - options_.prior_real;
+    // A point with one answer is real more often than one with rivals (docs/landmarks.md).
+    const double prior_real = 1.0 - noneMass(n);
+    if (g != 0) groups_[g - 1].none_mass = 1.0 - prior_real;
     for (int i = 0; i < n; ++i) {
       const DisparityHypothesis& h = hyps.hypotheses[chosen[i]];
       const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(point.corner.u_px, point.corner.v_px), h.d_px);
@@ -637,7 +639,7 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
           }
         }
       }
-      l.prior = static_cast<float>(options_.prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);
+      l.prior = static_cast<float>(prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);
       l.confidence = l.prior;
       l.svo_range = static_cast<float>(1.0 / options_.min_depth_m);
       l.svo_mu = static_cast<float>(1.0 / p_cl->z());

@@ -168,6 +168,11 @@ class LandmarkDatabase {
   void associate(const StereoHypotheses& hyps, FrameReport* report);
   /// Returns false when the observation contradicts the candidate's anchor (not recorded).
   [[nodiscard]] bool rowSupported(const DisparityHypothesis& h) const;
+  /// Prior mass of "none of a point's hypotheses is real" for a point seeded with `rivals`
+  /// candidates: 1 - prior_real_lone for a lone one, else 1 - prior_real.
+  [[nodiscard]] double noneMass(int rivals) const {
+    return 1.0 - (rivals == 1 ? options_.prior_real_lone : options_.prior_real);
+  }
   bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
   /// T_w_cl of the landmark's anchor frame, from the ring of recent frames' poses when it is
   /// there (the anchor check needs it for every candidate association).

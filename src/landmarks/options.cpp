@@ -65,6 +65,9 @@ Status LandmarkOptions::validate() const {
     return bad("max_disparity_px", max_disparity_px, "> min_disparity_px >= 0");
   }
   if (!(prior_real > 0.0 && prior_real < 1.0)) return bad("prior_real", prior_real, "in (0, 1)");
+  if (!(prior_real_lone > 0.0 && prior_real_lone < 1.0)) {
+    return bad("prior_real_lone", prior_real_lone, "in (0, 1)");
+  }
   if (!(detection_prob > 0.0 && detection_prob < 1.0)) return bad("detection_prob", detection_prob, "in (0, 1)");
   if (!(max_hit_evidence > 0.0 && std::isfinite(max_hit_evidence))) return bad("max_hit_evidence", max_hit_evidence, "> 0");
   if (!finite_nonneg(stability_evidence)) return bad("stability_evidence", stability_evidence, ">= 0");

@@ -73,7 +73,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 51,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 52,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -163,6 +163,8 @@ void visitLandmarks(O& o, V& v) {
                     "frontend search range; twocam run sets it from frontend.sad [px]");
   TWOCAM_CONFIG_KEY(prior_real,
                     "prior that a point's hypotheses hold the real match [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(prior_real_lone,
+                    "the same for a point with one answer, seeded without rivals [-], in (0, 1)");
   TWOCAM_CONFIG_KEY(detection_prob,
                     "re-detection probability of a visible landmark [-], in (0, 1)");
   TWOCAM_CONFIG_KEY(max_hit_evidence, "cap on the evidence of one hit [nats], > 0");

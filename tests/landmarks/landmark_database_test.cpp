@@ -135,6 +135,48 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
       << "wrong: " << same.wrong_periodic << " periodic, " << same.wrong_random << " random";
 }
 
+TEST(LandmarkDatabase, LonePriorOnlyMovesLoneCandidates) {
+  // prior_real_lone is the prior of a point seeded without rivals. Equal to prior_real it is the
+  // same database; higher, lone candidates confirm sooner and more of them (the default keeps it
+  // equal: docs/landmarks.md, "Prior of a lone candidate"). Points seeded with rivals do not see
+  // it: with every point given a rival, the key changes nothing.
+  SyntheticStreamOptions so;
+  so.seed = 7;
+  LandmarkOptions options;
+  ASSERT_EQ(options.prior_real_lone, options.prior_real);
+  const RunOutcome base = runSynthetic(so, options, 300);
+  LandmarkOptions lone = options;
+  lone.prior_real_lone = 0.9;
+  const RunOutcome raised = runSynthetic(so, lone, 300);
+  std::printf("confirmed (correct) with a lone prior of 0.5: %d (%d), 0.9: %d (%d)\n", base.confirmed,
+              base.correct, raised.confirmed, raised.correct);
+  EXPECT_GT(raised.correct, base.correct + base.correct / 10);
+  EXPECT_GE(static_cast<double>(raised.correct) / raised.confirmed, kMinPrecision);
+  // At creation a lone candidate's confidence is prior_real_lone; one with rivals shares
+  // prior_real with them.
+  const StereoRig rig = SyntheticStream::defaultRig();
+  SyntheticStream stream(rig, so);
+  LandmarkDatabase db(rig, lone);
+  SyntheticFrame frame;
+  FrameReport report;
+  stream.next(&frame);
+  ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+  int lone_seen = 0;
+  int grouped_seen = 0;
+  for (uint32_t slot : report.created_slots) {
+    const Landmark& l = db.landmarks()[slot];
+    if (l.rivals_at_creation == 1) {
+      ++lone_seen;
+      EXPECT_FLOAT_EQ(l.confidence, 0.9f);
+    } else {
+      ++grouped_seen;
+      EXPECT_LE(l.confidence, static_cast<float>(lone.prior_real));
+    }
+  }
+  EXPECT_GT(lone_seen, 10);
+  EXPECT_GT(grouped_seen, 10);
+}
+
 TEST(LandmarkDatabase, WinnerTakesAllKeepsSpuriousBestMatches) {
   // The baseline accepts the best match at once; with rivals winning 30 % of the time its
   // precision must be clearly below the consistency policy's, or the experiment is pointless.
@@ -645,6 +687,11 @@ TEST(LandmarkOptions, ValidateNamesTheKey) {
   o = LandmarkOptions();
   o.same_answer_px = -0.5;
   EXPECT_NE(o.validate().message().find("same_answer_px"), std::string::npos);
+  o = LandmarkOptions();
+  o.prior_real_lone = 1.0;
+  EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
+  o.prior_real_lone = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
   Policy p;
   EXPECT_TRUE(parsePolicy("seen-count", &p).isOk());
   EXPECT_EQ(p, Policy::kSeenCount);
