@@ -42,6 +42,9 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 int runStereoEval(const StereoEvalArgs& args) {
   if (args.mode != "dense" && args.mode != "salient") return fail("--mode must be dense or salient, got '" + args.mode + "'");
   if (!(args.gt_scale > 0.0)) return fail("--gt-scale must be > 0");
+  if (args.birchfield_tomasi && args.mode != "salient") {
+    return fail("--birchfield-tomasi applies to --mode salient only (the dense matcher is plain SAD)");
+  }
   if (args.border_px < 0) return fail("--border must be >= 0");
   if (Status s = checkWritable(args.output_json); !s) return fail(s.message());
   if (Status s = checkWritable(args.output_image); !s) return fail(s.message());

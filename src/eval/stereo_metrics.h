@@ -149,8 +149,8 @@ void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics);
 
 /// The metrics as a JSON object with METRICS.md's keys first, in this fixed order:
 /// bad1, bad2, avgerr, density, recall_at_k, points, ms, s_per_mp, then k, recall_at_1,
-/// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision. Doubles are written with 6 decimals (locale
-/// independent), NaN and infinities as null. `indent` prefixes every line after the first so
+/// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision. Doubles are
+/// written with 6 decimals (locale independent), NaN and infinities as null. `indent` prefixes every line after the first so
 /// the object can be nested in a larger file; no trailing newline.
 std::string toJson(const StereoMetrics& metrics, const std::string& indent = "");
 

@@ -596,7 +596,8 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
     double weight_sum = 0.0;
     for (int i = 0; i < n; ++i) weight_sum += hyps.hypotheses[chosen[i]].lr_consistent ? 2.0 : 1.0;
     const uint32_t g = options_.policy == Policy::kConsistency ? allocateGroup() + 1 : 0;
-    // A point with one answer is real more often than one with rivals (docs/landmarks.md).
+    // A lone point may have its own prior, prior_real_lone (docs/landmarks.md, "Prior of a lone
+    // candidate"; by default equal to prior_real).
     const double prior_real = 1.0 - noneMass(n);
     if (g != 0) groups_[g - 1].none_mass = 1.0 - prior_real;
     for (int i = 0; i < n; ++i) {

@@ -139,7 +139,7 @@ TEST(LandmarkDatabase, LonePriorOnlyMovesLoneCandidates) {
   // prior_real_lone is the prior of a point seeded without rivals. Equal to prior_real it is the
   // same database; higher, lone candidates confirm sooner and more of them (the default keeps it
   // equal: docs/landmarks.md, "Prior of a lone candidate"). Points seeded with rivals do not see
-  // it: with every point given a rival, the key changes nothing.
+  // it: they still share prior_real.
   SyntheticStreamOptions so;
   so.seed = 7;
   LandmarkOptions options;

@@ -582,6 +582,9 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
       stereoEvalArgs(pair, "--max-disp 200 --mode dense"), json, {"--max-disp", "width"});
   expectStereoEvalRejected(
       stereoEvalArgs(pair, "--max-disp 16 --mode other"), json, {"--mode", "other"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --birchfield-tomasi"),
+                           json,
+                           {"--birchfield-tomasi", "salient"});
 
   const std::string mask = dir + "/narrow_mask.pgm";
   writePgm(mask,
