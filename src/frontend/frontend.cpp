@@ -66,4 +66,14 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
   return Status::ok();
 }
 
+Status Frontend::measureAt(const StereoFrame& frame, const std::vector<Corner>& pixels, StereoHypotheses* out) const {
+  TWOCAM_CHECK(out != nullptr);
+  if (Status s = matchSalient(frame.left, frame.right, pixels, options_.sad, out); !s) return s;
+  if (options_.sad.row_support) {
+    if (Status r = measureRowSupport(frame.left, frame.right, options_.sad, out); !r) return r;
+  }
+  out->t_ns = frame.t_ns;
+  return Status::ok();
+}
+
 }  // namespace twocam::frontend

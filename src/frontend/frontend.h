@@ -50,6 +50,13 @@ class Frontend {
   /// differently sized images, or images too small for the detector and the matcher.
   Status process(const StereoFrame& frame, StereoHypotheses* out);
 
+  /// The matcher (and row support, when on) at given left pixels of `frame`, as process() runs
+  /// it on the detected corners: one SalientPoint per pixel whose window fits, in input order.
+  /// Always the SAD matcher, whatever options().source says (pairing needs a right corner). The
+  /// landmark database uses it to re-measure candidates whose corner was not detected
+  /// (LandmarkOptions::probe_unseen). Errors as process(); out->t_ns = frame.t_ns.
+  Status measureAt(const StereoFrame& frame, const std::vector<Corner>& pixels, StereoHypotheses* out) const;
+
   /// Left corners of the last frame (the salient points, before the matcher dropped any).
   [[nodiscard]] const std::vector<Corner>& corners() const { return left_corners_; }
   [[nodiscard]] const FrontendTiming& timing() const { return timing_; }

@@ -30,7 +30,8 @@ Status LandmarkDatabase::update(int32_t frame,
                                 int64_t t_ns,
                                 const Pose2& odom_pose,
                                 const StereoHypotheses& hyps,
-                                FrameReport* report) {
+                                FrameReport* report,
+                                const DisparityProbe* probe) {
   TWOCAM_CHECK(report != nullptr);
   if (!std::isfinite(odom_pose.x_m) || !std::isfinite(odom_pose.y_m) || !std::isfinite(odom_pose.yaw_rad)) {
     std::ostringstream msg;
@@ -63,6 +64,7 @@ Status LandmarkDatabase::update(int32_t frame,
   report->hypotheses = static_cast<int>(hyps.hypotheses.size());
   report->predicted_visible = report->associated = report->seeded = 0;
   report->confirmed = report->pruned = report->refined = 0;
+  report->probed = report->probe_found = 0;
   report->created_slots.clear();
   report->created_hypotheses.clear();
   report->removed_ids.clear();
@@ -116,6 +118,11 @@ Status LandmarkDatabase::update(int32_t frame,
 
   predictAll(T_cl_w_, hyps);
   associate(hyps, report);
+  if (probe != nullptr && *probe && options_.probe_unseen && options_.policy == Policy::kConsistency) {
+    if (Status s = probeUnseen(*probe, report); !s) {
+      return Status::error("frame " + std::to_string(frame) + ": re-measuring unseen candidates: " + s.message());
+    }
+  }
   scoreAndLifeCycle(report);
   seed(hyps, report);
   enforceCaps(report);
@@ -203,6 +210,7 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoH
   visible_.assign(slots_.size(), 0);
   associated_.assign(slots_.size(), 0);
   contradicted_.assign(slots_.size(), 0);
+  probed_.assign(slots_.size(), 0);
   informative_.assign(slots_.size(), 0);
   const double border = options_.visibility_border_px;
   const double g = std::sqrt(options_.gate_chi2);
@@ -330,6 +338,46 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
   report->predicted_visible = static_cast<int>(predictions_.size());
 }
 
+Status LandmarkDatabase::probeUnseen(const DisparityProbe& probe, FrameReport* report) {
+  probe_pixels_.clear();
+  probe_prediction_.clear();
+  for (uint32_t i = 0; i < predictions_.size(); ++i) {
+    const Prediction& p = predictions_[i];
+    if (p.confirmed || associated_[p.slot]) continue;
+    Corner c;
+    c.u_px = static_cast<int>(std::lround(p.u));
+    c.v_px = static_cast<int>(std::lround(p.v));
+    probe_pixels_.push_back(c);
+    probe_prediction_.push_back(i);
+  }
+  report->probed = static_cast<int>(probe_pixels_.size());
+  if (probe_pixels_.empty()) return Status::ok();
+  if (Status s = probe(probe_pixels_, &probe_hyps_); !s) return s;
+  // The probe returns one point per pixel whose window fit, in input order: walk both lists.
+  const float gate = static_cast<float>(options_.gate_chi2);
+  size_t k = 0;
+  for (const SalientPoint& sp : probe_hyps_.points) {
+    while (k < probe_pixels_.size() &&
+           (probe_pixels_[k].u_px != sp.corner.u_px || probe_pixels_[k].v_px != sp.corner.v_px)) {
+      ++k;
+    }
+    if (k == probe_pixels_.size()) return Status::error("the probe returned a pixel it was not asked for");
+    const Prediction& p = predictions_[probe_prediction_[k++]];
+    // One answer only: where the matcher finds several, the point may be any of them (or a
+    // periodic alias of the candidate), so the measurement says nothing and the miss stands.
+    if (sp.num_hypotheses != 1 || sp.first_hypothesis >= probe_hyps_.hypotheses.size()) continue;
+    const DisparityHypothesis& h = probe_hyps_.hypotheses[sp.first_hypothesis];
+    const float du = static_cast<float>(sp.corner.u_px) - p.u;
+    const float dv = static_cast<float>(sp.corner.v_px) - p.v;
+    const float dd = h.d_px - p.d;
+    if (du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d > gate) continue;
+    if (!rowSupported(h)) continue;
+    probed_[p.slot] = 1;
+    ++report->probe_found;
+  }
+  return Status::ok();
+}
+
 Eigen::Isometry3d LandmarkDatabase::anchorCameraPose(const Landmark& l) const {
   const PoseRingEntry& e = pose_ring_[static_cast<uint32_t>(l.anchor.frame) % kPoseRingSize];
   if (e.frame == l.anchor.frame) return e.T_w_cl;
@@ -421,6 +469,8 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
   for (const Prediction& p : predictions_) {
     Landmark& l = slots_[p.slot];
     const bool hit = associated_[p.slot] != 0;
+    // Found by the probe at the predicted depth: neither seen nor missed (probe_unseen).
+    if (probed_[p.slot]) continue;
     if (!hit || contradicted_[p.slot]) ++l.consecutive_misses;
     if (options_.policy != Policy::kConsistency) continue;
     if (path_m_ - l.path_at_last_evidence_m < options_.evidence_step_m) continue;

@@ -8,6 +8,7 @@
 /// cl = left camera optical frame. A landmark's position p_w is in the odometry world frame.
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -95,6 +96,11 @@ struct Landmark {
   std::vector<Observation> observations;
 };
 
+/// Measures stereo hypotheses at given left pixels of the current frame (the frontend's matcher
+/// run on chosen pixels instead of detected corners): one SalientPoint per pixel whose window
+/// fits the image, in input order, each with its hypotheses. See LandmarkOptions::probe_unseen.
+using DisparityProbe = std::function<Status(const std::vector<Corner>& pixels, StereoHypotheses* out)>;
+
 /// What happened in one update.
 struct FrameReport {
   int32_t frame = 0;
@@ -105,6 +111,10 @@ struct FrameReport {
   int confirmed = 0;
   int pruned = 0;
   int refined = 0;
+  /// Candidates re-measured at their predicted pixel (LandmarkOptions::probe_unseen), and how
+  /// many of those measurements found them (one answer in the gate, with row support).
+  int probed = 0;
+  int probe_found = 0;
   /// Slots of the landmarks created this frame (read their anchors through landmarks()) and,
   /// in parallel, the index of the hypothesis each was seeded from.
   std::vector<uint32_t> created_slots;
@@ -128,11 +138,15 @@ class LandmarkDatabase {
   /// `frame` counts from 0 in log order and must increase; t_ns must not go backwards.
   /// Returns an error, leaving the database unchanged, for a non-finite pose, a frame index or
   /// time stamp that goes backwards, or hypotheses that reference missing points.
+  /// `probe`, when given (and LandmarkOptions::probe_unseen, consistency policy), re-measures
+  /// the candidates that were predicted visible but not associated; an error it returns is
+  /// returned (the frame's associations are then applied but not scored: the run cannot go on).
   Status update(int32_t frame,
                 int64_t t_ns,
                 const Pose2& odom_pose,
                 const StereoHypotheses& hypotheses,
-                FrameReport* report);
+                FrameReport* report,
+                const DisparityProbe* probe = nullptr);
 
   /// All slots; skip those in state kFree.
   [[nodiscard]] const std::vector<Landmark>& landmarks() const { return slots_; }
@@ -166,6 +180,8 @@ class LandmarkDatabase {
   void normaliseGroup(uint32_t group);
   void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
   void associate(const StereoHypotheses& hyps, FrameReport* report);
+  /// LandmarkOptions::probe_unseen: marks in probed_ the unassociated candidates the probe finds.
+  Status probeUnseen(const DisparityProbe& probe, FrameReport* report);
   /// Returns false when the observation contradicts the candidate's anchor (not recorded).
   [[nodiscard]] bool rowSupported(const DisparityHypothesis& h) const;
   /// Prior mass of "none of a point's hypotheses is real" for a point seeded with `rivals`
@@ -236,6 +252,11 @@ class LandmarkDatabase {
   std::vector<uint32_t> groups_touched_;
   std::vector<uint8_t> group_touched_flag_;
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
+  // probeUnseen's per-frame buffers (reused): pixels, the prediction each stands for, results.
+  std::vector<Corner> probe_pixels_;
+  std::vector<uint32_t> probe_prediction_;
+  StereoHypotheses probe_hyps_;
+  std::vector<uint8_t> probed_;  // per slot: found by this frame's probe (neither hit nor miss)
 };
 
 }  // namespace twocam::landmarks

@@ -237,6 +237,17 @@ struct LandmarkOptions {
   /// widened by odometry drift, holds several corners; taking the nearest lets the landmark live
   /// on a neighbour while its own corner is confirmed again (docs/landmarks.md, "Duplicates").
   bool unambiguous_confirmed_hits = true;
+  /// consistency policy: a candidate predicted visible but not associated with any of the
+  /// frame's hypotheses (its corner was not detected, or another landmark took it) is measured
+  /// again at its predicted pixel with the frontend's matcher (LandmarkDatabase::update's
+  /// probe). When that gives exactly one answer, inside the candidate's gate and with row
+  /// support, the frame counts neither as a hit nor as a miss: the point is there at the
+  /// predicted depth, but a measurement placed at the prediction cannot test its column, so it
+  /// adds no evidence and no observation. Harris corners flicker (a true candidate of the
+  /// garden world found no corner in its gate in a third of its frames), and without this each
+  /// flicker was a miss that pruned real points. Needs the images: runs without a probe
+  /// (replayed hypotheses, the landmarks benchmark) behave as false. docs/landmarks.md, "Probing unseen candidates".
+  bool probe_unseen = true;
   /// Huber loss scale of the refinement residuals, in units of their sigma [-].
   double refine_huber = 1.0;
 

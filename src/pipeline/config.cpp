@@ -73,7 +73,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 52,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 53,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -215,6 +215,8 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(refine_huber, "Huber loss scale of the refinement [sigma], > 0");
   TWOCAM_CONFIG_KEY(unambiguous_confirmed_hits,
                     "consistency: a confirmed landmark with several corners in its gate is not associated [bool]");
+  TWOCAM_CONFIG_KEY(probe_unseen,
+                    "consistency: re-measure an unassociated candidate at its predicted pixel; one answer in its gate is not a miss [bool]");
 }
 
 template <typename O, typename V>

@@ -46,7 +46,12 @@ Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out
 
 Status Pipeline::process(int32_t frame, const StereoFrame& stereo, const Pose2& odom_pose, FrameOutput* out) {
   if (Status s = processFrontendOnly(stereo, out); !s) return s;
-  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out);
+  // Candidates whose corner was not detected are re-measured on this frame's images
+  // (LandmarkOptions::probe_unseen); replayed hypotheses (processHypotheses) have none.
+  const landmarks::DisparityProbe probe = [this, &stereo](const std::vector<Corner>& pixels, StereoHypotheses* h) {
+    return frontend_.measureAt(stereo, pixels, h);
+  };
+  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out, &probe);
 }
 
 Status Pipeline::processHypotheses(int32_t frame,
@@ -60,16 +65,17 @@ Status Pipeline::processHypotheses(int32_t frame,
   out->times = StageTimes{};
   out->failure = FrameOutput::Failure::kNone;
   hyps_ = hypotheses;
-  return landmarksAndMap(frame, t_ns, odom_pose, hyps_, out);
+  return landmarksAndMap(frame, t_ns, odom_pose, hyps_, out, nullptr);
 }
 
 Status Pipeline::landmarksAndMap(int32_t frame,
                                  int64_t t_ns,
                                  const Pose2& odom_pose,
                                  const StereoHypotheses& hyps,
-                                 FrameOutput* out) {
+                                 FrameOutput* out,
+                                 const landmarks::DisparityProbe* probe) {
   const auto t1 = std::chrono::steady_clock::now();
-  if (Status s = db_.update(frame, t_ns, odom_pose, hyps, &report_); !s) {
+  if (Status s = db_.update(frame, t_ns, odom_pose, hyps, &report_, probe); !s) {
     out->failure = FrameOutput::Failure::kLandmarks;
     return s;
   }

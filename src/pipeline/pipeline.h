@@ -64,6 +64,7 @@ class Pipeline {
 
   /// Landmarks and map from hypotheses made elsewhere (another matcher, e.g. the OpenCV
   /// reference in pipeline_bench); out->times.frontend_ms stays 0. Copies the hypotheses.
+  /// Without images there is nothing to re-measure, so LandmarkOptions::probe_unseen is idle.
   Status processHypotheses(int32_t frame,
                            int64_t t_ns,
                            const Pose2& odom_pose,
@@ -77,7 +78,12 @@ class Pipeline {
   [[nodiscard]] const landmarks::FrameReport& report() const { return report_; }
 
  private:
-  Status landmarksAndMap(int32_t frame, int64_t t_ns, const Pose2& odom_pose, const StereoHypotheses& hyps, FrameOutput* out);
+  Status landmarksAndMap(int32_t frame,
+                        int64_t t_ns,
+                        const Pose2& odom_pose,
+                        const StereoHypotheses& hyps,
+                        FrameOutput* out,
+                        const landmarks::DisparityProbe* probe);
 
   StereoRig rig_;
   frontend::Frontend frontend_;

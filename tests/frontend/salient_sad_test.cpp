@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "frontend/cv_interop.h"
+#include "frontend/frontend.h"
 #include "support/test_paths.h"
 
 namespace twocam::frontend {
@@ -204,6 +205,40 @@ TEST(SalientSad, IntegerShiftFindsTrueDisparityConsistently) {
     EXPECT_EQ(h->row_offset_px, 0);
     EXPECT_TRUE(h->lr_consistent);
   }
+}
+
+// Frontend::measureAt runs the frame's matcher (and row support) at chosen pixels: what the
+// landmark database re-measures a candidate with when its corner was not detected.
+TEST(Frontend, MeasureAtMatchesTheGivenPixelsInOrder) {
+  constexpr int kD = 17;
+  const cv::Mat tex = randomTexture(400, 140, 21);
+  const StereoPair pair = shiftedPair(tex, 320, 120, kD);
+  StereoFrame frame;
+  frame.t_ns = 42;
+  frame.left = pair.left;
+  frame.right = pair.right;
+  FrontendOptions options;
+  options.sad.row_support = true;
+  const Frontend frontend(options);
+  // The second pixel's window leaves the image: it is skipped, the others keep their order.
+  const std::vector<Corner> pixels = {{200, 40, 0.0f}, {2, 40, 0.0f}, {90, 100, 0.0f}, {150, 60, 0.0f}};
+  StereoHypotheses out;
+  ASSERT_TRUE(frontend.measureAt(frame, pixels, &out).isOk());
+  EXPECT_EQ(out.t_ns, 42);
+  ASSERT_EQ(out.points.size(), 3u);
+  EXPECT_EQ(out.points[0].corner.u_px, 200);
+  EXPECT_EQ(out.points[1].corner.u_px, 90);
+  EXPECT_EQ(out.points[2].corner.u_px, 150);
+  for (const SalientPoint& p : out.points) {
+    const DisparityHypothesis* h = best(out, p);
+    ASSERT_NE(h, nullptr);
+    EXPECT_NEAR(h->d_px, kD, kIntegerShiftTolPx);
+    // Row support was measured: a fronto-parallel plane matches one row up and down alike.
+    EXPECT_LE(h->row_span_px, kIntegerShiftTolPx);
+  }
+  StereoFrame bad = frame;
+  bad.right = ImageU8();
+  EXPECT_FALSE(frontend.measureAt(bad, pixels, &out).isOk());
 }
 
 TEST(SalientSad, BorderTruncatedSearchEndIsNotAHypothesis) {

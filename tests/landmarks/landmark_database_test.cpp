@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <cstdio>
+#include <functional>
 #include <map>
 
 #include <gtest/gtest.h>
@@ -450,6 +451,129 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
     ASSERT_LE(db.numConfirmed(), options.max_confirmed);
   }
   EXPECT_EQ(db.numConfirmed(), options.max_confirmed);
+}
+
+/// One wall point seen once, then never detected again while the robot drives towards it; each
+/// later frame the database may re-measure it through `probe` (LandmarkOptions::probe_unseen).
+struct ProbeRun {
+  bool alive = false;
+  int n_obs = 0;
+  int probed = 0;
+  int probe_found = 0;
+};
+
+/// `answers(d_true)` gives the disparities the probe reports at the point's predicted pixel.
+ProbeRun runFlickeringPoint(const LandmarkOptions& options,
+                            const std::function<std::vector<float>(float)>& answers,
+                            bool with_probe,
+                            int frames) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  LandmarkDatabase db(rig, options);
+  const Eigen::Vector3d p_w(4.0, 0.3, 0.4);  // 4 m ahead, off the optical axis
+  FrameReport report;
+  ProbeRun run;
+  for (int k = 0; k < frames; ++k) {
+    Pose2 pose;
+    pose.x_m = 0.02 * k;  // 2 cm per frame, straight ahead
+    const Eigen::Vector3d p_cl = cameraPoseInWorld(pose, rig.T_b_cl).inverse() * p_w;
+    Eigen::Vector3d uvd;
+    EXPECT_TRUE(projectStereo(rig, p_cl, &uvd));
+    const float d_true = static_cast<float>(uvd.z());
+    StereoHypotheses hyps;
+    if (k == 0) {
+      SalientPoint sp;
+      sp.corner.u_px = static_cast<int>(std::lround(uvd.x()));
+      sp.corner.v_px = static_cast<int>(std::lround(uvd.y()));
+      sp.num_hypotheses = 1;
+      sp.complete = true;
+      DisparityHypothesis h;
+      h.d_px = d_true;
+      hyps.points.push_back(sp);
+      hyps.hypotheses.push_back(h);
+    }
+    const DisparityProbe probe = [&](const std::vector<Corner>& pixels, StereoHypotheses* out) {
+      out->clear();
+      for (const Corner& c : pixels) {
+        SalientPoint sp;
+        sp.corner = c;
+        sp.first_hypothesis = static_cast<uint32_t>(out->hypotheses.size());
+        for (float d : answers(d_true)) {
+          DisparityHypothesis h;
+          h.d_px = d;
+          h.point_index = static_cast<uint32_t>(out->points.size());
+          out->hypotheses.push_back(h);
+          ++sp.num_hypotheses;
+        }
+        out->points.push_back(sp);
+      }
+      return Status::ok();
+    };
+    const Status s = db.update(k, 100'000'000LL * k, pose, hyps, &report, with_probe ? &probe : nullptr);
+    EXPECT_TRUE(s.isOk()) << s.message();
+    run.probed += report.probed;
+    run.probe_found += report.probe_found;
+  }
+  for (const Landmark& l : db.landmarks()) {
+    if (l.state == LandmarkState::kFree) continue;
+    run.alive = true;
+    run.n_obs = l.n_obs;
+  }
+  return run;
+}
+
+// A real corner the detector stops finding is still there at its predicted depth: the probe's
+// one answer in the gate is neither a hit nor a miss, so the candidate lives on (without any
+// evidence or observation from it), where each lost detection used to count as a miss.
+TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
+  constexpr int kFrames = 20;  // past max_consecutive_misses (8) and the prune probability
+  const LandmarkOptions options;
+  ASSERT_TRUE(options.probe_unseen);
+  const auto truth = [](float d) { return std::vector<float>{d}; };
+  const ProbeRun found = runFlickeringPoint(options, truth, true, kFrames);
+  EXPECT_TRUE(found.alive);
+  EXPECT_EQ(found.n_obs, 1) << "a probe's answer is not an observation";
+  EXPECT_EQ(found.probed, kFrames - 1);
+  EXPECT_EQ(found.probe_found, kFrames - 1);
+  // Without the probe, or with the option off, the misses prune it.
+  EXPECT_FALSE(runFlickeringPoint(options, truth, false, kFrames).alive);
+  LandmarkOptions off = options;
+  off.probe_unseen = false;
+  const ProbeRun unused = runFlickeringPoint(off, truth, true, kFrames);
+  EXPECT_FALSE(unused.alive);
+  EXPECT_EQ(unused.probed, 0);
+  // An answer outside the gate (another depth), or several answers (ambiguous), is still a miss.
+  constexpr float kOtherDepthPx = 6.0f;
+  const ProbeRun elsewhere =
+      runFlickeringPoint(options, [](float d) { return std::vector<float>{d + kOtherDepthPx}; }, true, kFrames);
+  EXPECT_FALSE(elsewhere.alive);
+  EXPECT_GT(elsewhere.probed, 0);
+  EXPECT_EQ(elsewhere.probe_found, 0);
+  const ProbeRun ambiguous =
+      runFlickeringPoint(options, [](float d) { return std::vector<float>{d, d + kOtherDepthPx}; }, true, kFrames);
+  EXPECT_FALSE(ambiguous.alive);
+  EXPECT_EQ(ambiguous.probe_found, 0);
+  // The baselines, as published, do not re-measure.
+  LandmarkOptions seen = options;
+  seen.policy = Policy::kSeenCount;
+  EXPECT_EQ(runFlickeringPoint(seen, truth, true, kFrames).probed, 0);
+}
+
+TEST(LandmarkDatabase, ProbeErrorStopsTheUpdateWithAClearMessage) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  SyntheticStream stream(rig, SyntheticStreamOptions());
+  LandmarkDatabase db(rig, LandmarkOptions());
+  SyntheticFrame frame;
+  FrameReport report;
+  stream.next(&frame);
+  ASSERT_TRUE(db.update(0, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+  const DisparityProbe failing = [](const std::vector<Corner>&, StereoHypotheses*) {
+    return Status::error("images differ in size");
+  };
+  // Nothing detected in the next frame: every candidate is unassociated, so the probe runs.
+  const Status s = db.update(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report, &failing);
+  ASSERT_FALSE(s.isOk());
+  EXPECT_NE(s.message().find("re-measuring unseen candidates: images differ in size"), std::string::npos)
+      << s.message();
 }
 
 TEST(LandmarkModel, RivalProbabilitiesSumToAtMostOne) {
