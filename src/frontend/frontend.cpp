@@ -68,9 +68,13 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
 
 Status Frontend::measureAt(const StereoFrame& frame, const std::vector<Corner>& pixels, StereoHypotheses* out) const {
   TWOCAM_CHECK(out != nullptr);
-  if (Status s = matchSalient(frame.left, frame.right, pixels, options_.sad, out); !s) return s;
-  if (options_.sad.row_support) {
-    if (Status r = measureRowSupport(frame.left, frame.right, options_.sad, out); !r) return r;
+  // The right-to-left check is left out: its flag serves seeding, and re-measurement does not
+  // seed (it is a third of the matcher's work per point).
+  SalientSadOptions sad = options_.sad;
+  sad.lr_check = false;
+  if (Status s = matchSalient(frame.left, frame.right, pixels, sad, out); !s) return s;
+  if (sad.row_support) {
+    if (Status r = measureRowSupport(frame.left, frame.right, sad, out); !r) return r;
   }
   out->t_ns = frame.t_ns;
   return Status::ok();
