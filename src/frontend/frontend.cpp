@@ -69,9 +69,12 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
 Status Frontend::measureAt(const StereoFrame& frame, const std::vector<Corner>& pixels, StereoHypotheses* out) const {
   TWOCAM_CHECK(out != nullptr);
   // The right-to-left check is left out: its flag serves seeding, and re-measurement does not
-  // seed (it is a third of the matcher's work per point).
+  // seed. So are the shifted windows: a pixel placed by a prediction is not a corner on a
+  // depth edge (those are not seeded), and windows off it add the neighbouring surface's
+  // disparity as a second answer (measured: docs/landmarks.md, "Probing unseen candidates").
   SalientSadOptions sad = options_.sad;
   sad.lr_check = false;
+  sad.shiftable_windows = false;
   if (Status s = matchSalient(frame.left, frame.right, pixels, sad, out); !s) return s;
   if (sad.row_support) {
     if (Status r = measureRowSupport(frame.left, frame.right, sad, out); !r) return r;

@@ -233,6 +233,8 @@ TEST(Frontend, MeasureAtMatchesTheGivenPixelsInOrder) {
     const DisparityHypothesis* h = best(out, p);
     ASSERT_NE(h, nullptr);
     EXPECT_NEAR(h->d_px, kD, kIntegerShiftTolPx);
+    EXPECT_EQ(h->window_shift_px, 0) << "centred window only";
+    EXPECT_FALSE(h->lr_consistent) << "no right-to-left check";
     // Row support was measured: a fronto-parallel plane matches one row up and down alike.
     EXPECT_LE(h->row_span_px, kIntegerShiftTolPx);
   }
