@@ -370,7 +370,8 @@ Status LandmarkDatabase::probeUnseen(const DisparityProbe& probe, FrameReport* r
     const float du = static_cast<float>(sp.corner.u_px) - p.u;
     const float dv = static_cast<float>(sp.corner.v_px) - p.v;
     const float dd = h.d_px - p.d;
-    if (du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d > gate) continue;
+    // Written so that a non-finite disparity from the probe fails the gate too.
+    if (!(du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d <= gate)) continue;
     if (!rowSupported(h)) continue;
     probed_[p.slot] = 1;
     ++report->probe_found;

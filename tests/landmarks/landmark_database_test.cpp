@@ -548,6 +548,10 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   EXPECT_FALSE(elsewhere.alive);
   EXPECT_GT(elsewhere.probed, 0);
   EXPECT_EQ(elsewhere.probe_found, 0);
+  const ProbeRun not_finite = runFlickeringPoint(
+      options, [](float) { return std::vector<float>{std::numeric_limits<float>::quiet_NaN()}; }, true, kFrames);
+  EXPECT_FALSE(not_finite.alive);
+  EXPECT_EQ(not_finite.probe_found, 0);
   const ProbeRun ambiguous =
       runFlickeringPoint(options, [](float d) { return std::vector<float>{d, d + kOtherDepthPx}; }, true, kFrames);
   EXPECT_FALSE(ambiguous.alive);
