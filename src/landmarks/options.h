@@ -246,7 +246,8 @@ struct LandmarkOptions {
   /// adds no evidence and no observation. Harris corners flicker (a true candidate of the
   /// garden world found no corner in its gate in a third of its frames), and without this each
   /// flicker was a miss that pruned real points. Needs the images: runs without a probe
-  /// (replayed hypotheses, the landmarks benchmark) behave as false. docs/landmarks.md, "Probing unseen candidates".
+  /// (replayed hypotheses, the landmarks benchmark) behave as false. Its time counts in the
+  /// landmark stage. docs/landmarks.md, "Probing unseen candidates".
   bool probe_unseen = true;
   /// Huber loss scale of the refinement residuals, in units of their sigma [-].
   double refine_huber = 1.0;
