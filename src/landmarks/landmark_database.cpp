@@ -19,7 +19,10 @@ double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 }  // namespace
 
 LandmarkDatabase::LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options)
-    : rig_(rig), options_(options), T_b_cl_(rig.T_b_cl) {
+    : rig_(rig),
+      options_(options),
+      T_b_cl_(rig.T_b_cl),
+      min_parallax_rad_(static_cast<float>(options.min_parallax_deg * M_PI / 180.0)) {
   const Status rig_status = rig.validate();
   TWOCAM_CHECK(rig_status.isOk()) << rig_status.message();
   const Status options_status = options.validate();
@@ -392,9 +395,10 @@ bool LandmarkDatabase::rowSupported(const DisparityHypothesis& h) const {
 bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c) {
   Landmark& l = slots_[slot];
   if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
+    const Eigen::Isometry3d T_w_anchor = anchorCameraPose(l);
     const AnchorCheck check = checkAgainstAnchor(options_,
                                                  rig_,
-                                                 anchorCameraPose(l),
+                                                 T_w_anchor,
                                                  l.anchor.u_px,
                                                  l.anchor.v_px,
                                                  l.anchor.d_px,
@@ -420,6 +424,8 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
           std::min(kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
     }
     if (std::min(l.phantom_llr[0], l.phantom_llr[1]) >= options_.verify_llr) l.verified = true;
+    const double parallax = parallaxAngle(l.p_w, T_w_anchor.translation(), T_w_cl_.translation());
+    l.max_parallax_rad = std::max(l.max_parallax_rad, static_cast<float>(parallax));
   }
   if (l.state == LandmarkState::kCandidate && !rowSupported(h)) ++l.n_row_unsupported;
   if (l.state == LandmarkState::kCandidate) {
@@ -531,7 +537,7 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
           prune_now = true;
         } else {
           confirm_now = (l.verified || l.rivals_at_creation == 1) && l.confidence >= options_.confirm_prob &&
-                        l.n_obs >= options_.min_observations &&
+                        l.n_obs >= options_.min_observations && l.max_parallax_rad >= min_parallax_rad_ &&
                         l.n_row_unsupported <= options_.max_row_unsupported_fraction * l.n_obs;
         }
         break;

@@ -59,6 +59,9 @@ struct Landmark {
   /// Consistency policy: the consistent re-observations favour this candidate over the
   /// phantoms of a rival depth by at least LandmarkOptions::verify_llr (see checkAgainstAnchor).
   bool verified = false;
+  /// Consistency policy: largest parallax of a consistent re-observation so far, the angle at
+  /// the anchor point between the anchor's and the observation's left-camera centres [rad].
+  float max_parallax_rad = 0.0f;
   /// Number of hypotheses of the corner when the candidate was created (1 = no rivals).
   uint8_t rivals_at_creation = 1;
   /// Consistency policy: AnchorCheck::phantom_llr summed over the consistent re-observations,
@@ -209,6 +212,7 @@ class LandmarkDatabase {
   StereoRig rig_;
   LandmarkOptions options_;
   Eigen::Isometry3d T_b_cl_;
+  float min_parallax_rad_;  // options_.min_parallax_deg in radians
   std::vector<Landmark> slots_;
   std::vector<HotSlot> hot_;  // parallel to slots_
   /// Camera poses of the last kPoseRingSize frames, indexed by frame % kPoseRingSize.

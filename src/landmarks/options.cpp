@@ -84,6 +84,9 @@ Status LandmarkOptions::validate() const {
     return bad("same_answer_px", same_answer_px, ">= 0");
   }
   if (min_observations < 1) return bad("min_observations", min_observations, ">= 1");
+  if (!(min_parallax_deg >= 0.0 && min_parallax_deg < 90.0)) {
+    return bad("min_parallax_deg", min_parallax_deg, "in [0, 90)");
+  }
   if (!(max_row_span_px >= 0.0)) return bad("max_row_span_px", max_row_span_px, ">= 0");
   if (!(max_row_span_relative >= 0.0)) return bad("max_row_span_relative", max_row_span_relative, ">= 0");
   if (!(max_row_unsupported_fraction >= 0.0 && max_row_unsupported_fraction <= 1.0)) {

@@ -166,6 +166,15 @@ struct LandmarkOptions {
   double verify_chi2 = 9.21;
   /// ... and at least this many observations [-].
   int min_observations = 4;
+  /// ... and a minimum parallax [deg], >= 0 and < 90: the angle at the candidate's anchor point
+  /// between the anchor's left-camera centre and that of at least one later consistent
+  /// observation. Below about a pixel of bearing change (0.11 deg at 500 px focal length, twice
+  /// pixel_sigma_px) the viewpoints are one, and a re-observation tests the corner's stability
+  /// but hardly its depth. A stereo rig has depth from every frame, so this only keeps
+  /// confirmations from a single viewpoint out (a point straight ahead of a robot driving at
+  /// it); 0.1 was chosen on the 4 worlds (docs/landmarks.md, "Minimum parallax"). Consistency
+  /// policy only.
+  double min_parallax_deg = 0.1;
   /// Candidates whose probability falls below this are pruned [-].
   double prune_prob = 0.02;
 

@@ -73,7 +73,7 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 3,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 53,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 54,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
@@ -183,6 +183,7 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(same_answer_px, "hypotheses of a corner this near each other are one answer [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
   TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
+  TWOCAM_CONFIG_KEY(min_parallax_deg, "consistency: viewpoint change needed to confirm [deg], in [0, 90)");
   TWOCAM_CONFIG_KEY(prune_prob,
                     "candidates below this probability are pruned [-], in [0, confirm_prob)");
   TWOCAM_CONFIG_KEY(seen_count_min, "seen-count: observations needed [-], >= 1");

@@ -453,6 +453,60 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
   EXPECT_EQ(db.numConfirmed(), options.max_confirmed);
 }
 
+/// One point detected with its true disparity in every frame while the robot drives straight
+/// ahead at 2 cm per frame. Returns the frame of its confirmation, -1 if it stays a candidate.
+int confirmationFrame(const LandmarkOptions& options, const Eigen::Vector3d& p_w, int frames) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  LandmarkDatabase db(rig, options);
+  FrameReport report;
+  for (int k = 0; k < frames; ++k) {
+    Pose2 pose;
+    pose.x_m = 0.02 * k;
+    const Eigen::Vector3d p_cl = cameraPoseInWorld(pose, rig.T_b_cl).inverse() * p_w;
+    Eigen::Vector3d uvd;
+    EXPECT_TRUE(projectStereo(rig, p_cl, &uvd));
+    StereoHypotheses hyps;
+    SalientPoint sp;
+    sp.corner.u_px = static_cast<int>(std::lround(uvd.x()));
+    sp.corner.v_px = static_cast<int>(std::lround(uvd.y()));
+    sp.num_hypotheses = 1;
+    sp.complete = true;
+    DisparityHypothesis h;
+    h.d_px = static_cast<float>(uvd.z());
+    hyps.points.push_back(sp);
+    hyps.hypotheses.push_back(h);
+    const Status s = db.update(k, 100'000'000LL * k, pose, hyps, &report);
+    EXPECT_TRUE(s.isOk()) << s.message();
+    if (report.confirmed > 0) return k;
+  }
+  return -1;
+}
+
+// Minimum parallax: a point straight ahead of a robot driving at it is seen from one bearing
+// (its pixel only drifts by rounding), so its re-observations say little about its depth and
+// it is not confirmed, however often it is seen; beside the path it is.
+TEST(LandmarkDatabase, ConfirmationNeedsAMinimumParallax) {
+  constexpr int kFrames = 40;  // 0.8 m of travel, 10 times what a lone point needs to confirm
+  const StereoRig rig = SyntheticStream::defaultRig();
+  // On the line the left camera's centre moves along, 4 m ahead of it.
+  const Eigen::Vector3d ahead = rig.T_b_cl.translation() + Eigen::Vector3d(4.0, 0.0, 0.0);
+  const Eigen::Vector3d beside = ahead + Eigen::Vector3d(0.0, 1.0, 0.0);
+  const LandmarkOptions options;
+  ASSERT_GT(options.min_parallax_deg, 0.0);
+  EXPECT_EQ(confirmationFrame(options, ahead, kFrames), -1);
+  const int beside_frame = confirmationFrame(options, beside, kFrames);
+  EXPECT_GE(beside_frame, options.min_observations - 1);
+  EXPECT_LT(beside_frame, 10) << "0.1 deg is reached after 2 frames";
+  // Without the rule the point ahead is confirmed as soon as the one beside.
+  LandmarkOptions any = options;
+  any.min_parallax_deg = 0.0;
+  EXPECT_EQ(confirmationFrame(any, ahead, kFrames), beside_frame);
+  // A rule the point beside cannot meet within the run (3.3 deg after 0.8 m).
+  LandmarkOptions strict = options;
+  strict.min_parallax_deg = 5.0;
+  EXPECT_EQ(confirmationFrame(strict, beside, kFrames), -1);
+}
+
 /// One wall point seen once, then never detected again while the robot drives towards it; each
 /// later frame the database may re-measure it through `probe` (LandmarkOptions::probe_unseen).
 struct ProbeRun {
@@ -820,6 +874,11 @@ TEST(LandmarkOptions, ValidateNamesTheKey) {
   EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
   o.prior_real_lone = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
+  o = LandmarkOptions();
+  o.min_parallax_deg = 90.0;
+  EXPECT_NE(o.validate().message().find("min_parallax_deg"), std::string::npos);
+  o.min_parallax_deg = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(o.validate().message().find("min_parallax_deg"), std::string::npos);
   Policy p;
   EXPECT_TRUE(parsePolicy("seen-count", &p).isOk());
   EXPECT_EQ(p, Policy::kSeenCount);

@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 constexpr int kHarrisKeys = 13;
 constexpr int kSadKeys = 17;
 constexpr int kFrontendOwnKeys = 1;  // source
-constexpr int kLandmarkKeys = 53;
+constexpr int kLandmarkKeys = 54;
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
 
