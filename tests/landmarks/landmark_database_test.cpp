@@ -453,6 +453,22 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
   EXPECT_EQ(db.numConfirmed(), options.max_confirmed);
 }
 
+/// A frame's frontend output holding one corner at the rounded pixel of `uvd` with the single
+/// (complete) hypothesis d = uvd.z().
+StereoHypotheses lonePoint(const Eigen::Vector3d& uvd) {
+  StereoHypotheses hyps;
+  SalientPoint sp;
+  sp.corner.u_px = static_cast<int>(std::lround(uvd.x()));
+  sp.corner.v_px = static_cast<int>(std::lround(uvd.y()));
+  sp.num_hypotheses = 1;
+  sp.complete = true;
+  DisparityHypothesis h;
+  h.d_px = static_cast<float>(uvd.z());
+  hyps.points.push_back(sp);
+  hyps.hypotheses.push_back(h);
+  return hyps;
+}
+
 /// One point detected with its true disparity in every frame while the robot drives straight
 /// ahead at 2 cm per frame. Returns the frame of its confirmation, -1 if it stays a candidate.
 int confirmationFrame(const LandmarkOptions& options, const Eigen::Vector3d& p_w, int frames) {
@@ -465,17 +481,7 @@ int confirmationFrame(const LandmarkOptions& options, const Eigen::Vector3d& p_w
     const Eigen::Vector3d p_cl = cameraPoseInWorld(pose, rig.T_b_cl).inverse() * p_w;
     Eigen::Vector3d uvd;
     EXPECT_TRUE(projectStereo(rig, p_cl, &uvd));
-    StereoHypotheses hyps;
-    SalientPoint sp;
-    sp.corner.u_px = static_cast<int>(std::lround(uvd.x()));
-    sp.corner.v_px = static_cast<int>(std::lround(uvd.y()));
-    sp.num_hypotheses = 1;
-    sp.complete = true;
-    DisparityHypothesis h;
-    h.d_px = static_cast<float>(uvd.z());
-    hyps.points.push_back(sp);
-    hyps.hypotheses.push_back(h);
-    const Status s = db.update(k, 100'000'000LL * k, pose, hyps, &report);
+    const Status s = db.update(k, 100'000'000LL * k, pose, lonePoint(uvd), &report);
     EXPECT_TRUE(s.isOk()) << s.message();
     if (report.confirmed > 0) return k;
   }
@@ -533,18 +539,7 @@ ProbeRun runFlickeringPoint(const LandmarkOptions& options,
     Eigen::Vector3d uvd;
     EXPECT_TRUE(projectStereo(rig, p_cl, &uvd));
     const float d_true = static_cast<float>(uvd.z());
-    StereoHypotheses hyps;
-    if (k == 0) {
-      SalientPoint sp;
-      sp.corner.u_px = static_cast<int>(std::lround(uvd.x()));
-      sp.corner.v_px = static_cast<int>(std::lround(uvd.y()));
-      sp.num_hypotheses = 1;
-      sp.complete = true;
-      DisparityHypothesis h;
-      h.d_px = d_true;
-      hyps.points.push_back(sp);
-      hyps.hypotheses.push_back(h);
-    }
+    const StereoHypotheses hyps = k == 0 ? lonePoint(uvd) : StereoHypotheses();
     const DisparityProbe probe = [&](const std::vector<Corner>& pixels, StereoHypotheses* out) {
       out->clear();
       for (const Corner& c : pixels) {
