@@ -424,8 +424,10 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
           std::min(kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
     }
     if (std::min(l.phantom_llr[0], l.phantom_llr[1]) >= options_.verify_llr) l.verified = true;
-    const double parallax = parallaxAngle(l.p_w, T_w_anchor.translation(), T_w_cl_.translation());
-    l.max_parallax_rad = std::max(l.max_parallax_rad, static_cast<float>(parallax));
+    if (l.max_parallax_rad < min_parallax_rad_) {  // only needed until the rule is met
+      const double parallax = parallaxAngle(l.p_w, T_w_anchor.translation(), T_w_cl_.translation());
+      l.max_parallax_rad = std::max(l.max_parallax_rad, static_cast<float>(parallax));
+    }
   }
   if (l.state == LandmarkState::kCandidate && !rowSupported(h)) ++l.n_row_unsupported;
   if (l.state == LandmarkState::kCandidate) {

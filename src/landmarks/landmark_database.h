@@ -60,7 +60,8 @@ struct Landmark {
   /// phantoms of a rival depth by at least LandmarkOptions::verify_llr (see checkAgainstAnchor).
   bool verified = false;
   /// Consistency policy: largest parallax of a consistent re-observation so far, the angle at
-  /// the anchor point between the anchor's and the observation's left-camera centres [rad].
+  /// the anchor point between the anchor's and the observation's left-camera centres [rad];
+  /// no longer updated once it reaches LandmarkOptions::min_parallax_deg.
   float max_parallax_rad = 0.0f;
   /// Number of hypotheses of the corner when the candidate was created (1 = no rivals).
   uint8_t rivals_at_creation = 1;
