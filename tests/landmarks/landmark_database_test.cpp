@@ -224,14 +224,26 @@ TEST(LandmarkDatabase, SameSeedSameResult) {
   EXPECT_EQ(results[0], results[1]);
 }
 
-TEST(LandmarkDatabase, RejectsBadOdometryAndTimeWithoutChangingState) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  SyntheticStream stream(rig, SyntheticStreamOptions());
-  LandmarkDatabase db(rig, LandmarkOptions());
+/// A database (default options) that has taken frame 0 of the default synthetic stream.
+struct AfterFirstFrame {
+  StereoRig rig = SyntheticStream::defaultRig();
+  SyntheticStream stream{rig, SyntheticStreamOptions()};
+  LandmarkDatabase db{rig, LandmarkOptions()};
   SyntheticFrame frame;
   FrameReport report;
-  stream.next(&frame);
-  ASSERT_TRUE(db.update(0, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+  Status status;
+  AfterFirstFrame() {
+    stream.next(&frame);
+    status = db.update(0, frame.t_ns, frame.odom_pose, frame.hypotheses, &report);
+  }
+};
+
+TEST(LandmarkDatabase, RejectsBadOdometryAndTimeWithoutChangingState) {
+  AfterFirstFrame first;
+  ASSERT_TRUE(first.status.isOk()) << first.status.message();
+  LandmarkDatabase& db = first.db;
+  const SyntheticFrame& frame = first.frame;
+  FrameReport& report = first.report;
   const int candidates = db.numCandidates();
   ASSERT_GT(candidates, 0);
   Pose2 nan_pose = frame.odom_pose;
@@ -612,13 +624,11 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
 }
 
 TEST(LandmarkDatabase, ProbeErrorStopsTheUpdateWithAClearMessage) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  SyntheticStream stream(rig, SyntheticStreamOptions());
-  LandmarkDatabase db(rig, LandmarkOptions());
-  SyntheticFrame frame;
-  FrameReport report;
-  stream.next(&frame);
-  ASSERT_TRUE(db.update(0, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+  AfterFirstFrame first;
+  ASSERT_TRUE(first.status.isOk()) << first.status.message();
+  LandmarkDatabase& db = first.db;
+  const SyntheticFrame& frame = first.frame;
+  FrameReport& report = first.report;
   const DisparityProbe failing = [](const std::vector<Corner>&, StereoHypotheses*) {
     return Status::error("images differ in size");
   };
