@@ -1,6 +1,11 @@
 #!/usr/bin/env python3
 """Prints the policy x world x odometry-noise table (markdown) from the metrics.json files that
-scripts/landmark_table.sh leaves in OUT/out_<world>_n<noise>_<policy>/."""
+scripts/landmark_table.sh leaves in OUT/out_<world>_n<noise>_<policy>/.
+
+Usage: landmark_table.py [OUT] [--texture]
+  --texture  instead: confirmed landmarks by the texture at their anchor (metrics.json
+             "by_texture": grey-level standard deviation of the 7x7 patch; plain below 4, faint
+             4-10, textured from 10), correct / confirmed and precision per class."""
 import json
 import os
 import sys
@@ -14,8 +19,37 @@ def fmt(value, pattern):
     return "n/a" if value is None else pattern.format(value)
 
 
+def texture_table(out):
+    print("| world | odometry noise | policy | plain: correct / confirmed | faint | textured |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for w in WORLDS:
+        for n in NOISE:
+            for p in POLICIES:
+                path = os.path.join(out, f"out_{w}_n{n}_{p}", "metrics.json")
+                if not os.path.exists(path):
+                    continue
+                with open(path) as f:
+                    rows = json.load(f).get("by_texture")
+                if rows is None:
+                    print(f"| {w} | x{n} | {p} | no by_texture (older run) | | |")
+                    continue
+                cells = []
+                for r in rows:
+                    prec = fmt(100.0 * r["correct"] / r["confirmed"] if r["confirmed"] else None, "{:.1f} %")
+                    cells.append(f"{r['correct']} / {r['confirmed']} ({prec})")
+                print(f"| {w} | x{n} | {p} | " + " | ".join(cells) + " |")
+
+
 def main():
-    out = sys.argv[1] if len(sys.argv) > 1 else "out/experiments"
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    flags = [a for a in sys.argv[1:] if a.startswith("--")]
+    unknown = [f for f in flags if f != "--texture"]
+    if unknown:
+        sys.exit(f"landmark_table.py: unknown option {unknown[0]} (usage: landmark_table.py [OUT] [--texture])")
+    out = args[0] if args else "out/experiments"
+    if "--texture" in flags:
+        texture_table(out)
+        return
     print("| world | odometry noise | policy | confirmed | correct | precision | precision (judged) "
           "| median error [mm] | frames to confirm |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")

@@ -308,7 +308,7 @@ int runRun(const RunArgs& args) {
       odom_track.push_back({frame.stereo.t_ns, toIsometry(frame.odometry->pose)});
       if (gt && has_gt) {
         gt_track.push_back({frame.stereo.t_ns, gt->T_w_b});
-        if (Status es = evaluator.addFrame(pipe.hypotheses(), pipe.report(), pipe.database(), gt->depth_left, gt->T_w_b); !es) {
+        if (Status es = evaluator.addFrame(pipe.hypotheses(), frame.stereo.left, pipe.report(), pipe.database(), gt->depth_left, gt->T_w_b); !es) {
           return fail(es.message());
         }
         if (eval_mapper) {
@@ -359,7 +359,7 @@ int runRun(const RunArgs& args) {
   std::ostringstream csv;
   csv << std::setprecision(9);
   csv << "id,x,y,z,confirmed,confidence,n_obs,first_frame,anchor_frame,anchor_u,anchor_v,anchor_d,confirmed_frame,"
-         "verdict,error_m,anchor_d_gt,estimate_anchor_d,anchor_d_gt_near,anchor_d_gt_far\n";
+         "verdict,error_m,anchor_d_gt,estimate_anchor_d,anchor_d_gt_near,anchor_d_gt_far,anchor_texture_grey\n";
   const auto optional_num = [&](double v) {
     if (std::isfinite(v)) csv << v;
   };
@@ -378,6 +378,8 @@ int runRun(const RunArgs& args) {
     optional_num(has_gt ? evaluator.anchorDisparityNear(l) : std::nan(""));
     csv << ',';
     optional_num(has_gt ? evaluator.anchorDisparityFar(l) : std::nan(""));
+    csv << ',';
+    optional_num(has_gt ? evaluator.anchorTextureGrey(l) : std::nan(""));
     csv << '\n';
   }
 

@@ -72,7 +72,26 @@ int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double r
   return count;
 }
 
+double patchStdDevGrey(const ImageU8& image, double u_px, double v_px, int radius) {
+  const long u0 = std::lround(u_px), v0 = std::lround(v_px);
+  if (!(u0 >= 0 && v0 >= 0 && u0 < image.width && v0 < image.height)) return std::numeric_limits<double>::quiet_NaN();
+  const int ua = static_cast<int>(std::max<long>(0, u0 - radius)), ub = static_cast<int>(std::min<long>(image.width - 1, u0 + radius));
+  const int va = static_cast<int>(std::max<long>(0, v0 - radius)), vb = static_cast<int>(std::min<long>(image.height - 1, v0 + radius));
+  double sum = 0.0, sum2 = 0.0;
+  for (int v = va; v <= vb; ++v) {
+    for (int u = ua; u <= ub; ++u) {
+      const double g = image(u, v);
+      sum += g;
+      sum2 += g * g;
+    }
+  }
+  const double n = static_cast<double>(ub - ua + 1) * static_cast<double>(vb - va + 1);
+  const double mean = sum / n;
+  return std::sqrt(std::max(0.0, sum2 / n - mean * mean));
+}
+
 Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
+                                   const ImageU8& left,
                                    const landmarks::FrameReport& report,
                                    const landmarks::LandmarkDatabase& db,
                                    const ImageF32& gt_depth,
@@ -123,6 +142,7 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
       const Eigen::Vector3d ray((l.anchor.u_px - rig_.cx_px) / rig_.fx_px, (l.anchor.v_px - rig_.cy_px) / rig_.fy_px, 1.0);
       t.p_true_w = (T_w_b_true * rig_.T_b_cl * (ray * static_cast<double>(t.z_gt))).cast<float>();
     }
+    t.texture_grey = static_cast<float>(patchStdDevGrey(left, l.anchor.u_px, l.anchor.v_px, kTexturePatchRadius));
     anchors_[l.id] = t;
   }
   return Status::ok();
@@ -154,6 +174,11 @@ double LandmarkEvaluator::anchorDisparityFar(const landmarks::Landmark& l) const
   return it == anchors_.end() ? std::numeric_limits<double>::quiet_NaN() : it->second.d_far;
 }
 
+double LandmarkEvaluator::anchorTextureGrey(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  return it == anchors_.end() ? std::numeric_limits<double>::quiet_NaN() : it->second.texture_grey;
+}
+
 double LandmarkEvaluator::errorM(const landmarks::Landmark& l) const {
   const auto it = anchors_.find(l.id);
   if (it == anchors_.end() || !it->second.valid) return std::numeric_limits<double>::quiet_NaN();
@@ -174,6 +199,10 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
   std::vector<Eigen::Vector3f> correct_points;
   std::vector<CalibrationRow> rows;
   for (double t : kCalibrationThresholds) rows.push_back({t, 0, 0, 0.0});
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  m.by_texture = {{"plain", 0.0, kPlainTextureGrey},
+                  {"faint", kPlainTextureGrey, kFaintTextureGrey},
+                  {"textured", kFaintTextureGrey, kInf}};
   for (const landmarks::Landmark& l : db.landmarks()) {
     if (l.state == landmarks::LandmarkState::kFree) continue;
     const int v = verdict(l);
@@ -190,6 +219,14 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
       continue;
     }
     ++m.confirmed;
+    const double texture = anchorTextureGrey(l);
+    for (TextureRow& r : m.by_texture) {
+      if (texture >= r.min_grey && texture < r.max_grey) {
+        ++r.confirmed;
+        r.correct += v > 0 ? 1 : 0;
+        r.unjudged += v < 0 ? 1 : 0;
+      }
+    }
     frames_to_confirm.push_back(static_cast<double>(l.confirmed_frame - l.first_frame));
     if (v < 0) {
       ++m.unjudged_confirmed;
@@ -256,6 +293,14 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
     const CalibrationRow& r = m.calibration[k];
     s << (k ? ", " : "") << "{\"threshold\": " << num(r.threshold) << ", \"landmarks\": " << r.landmarks
       << ", \"correct\": " << r.correct << ", \"precision\": " << num(r.precision) << "}";
+  }
+  s << "],\n";
+  s << i1 << "\"by_texture\": [";
+  for (size_t k = 0; k < m.by_texture.size(); ++k) {
+    const TextureRow& r = m.by_texture[k];
+    s << (k ? ", " : "") << "{\"class\": \"" << r.name << "\", \"min_grey\": " << num(r.min_grey)
+      << ", \"max_grey\": " << num(r.max_grey) << ", \"confirmed\": " << r.confirmed << ", \"correct\": " << r.correct
+      << ", \"unjudged\": " << r.unjudged << "}";
   }
   s << "]\n" << indent << "}";
   return s.str();

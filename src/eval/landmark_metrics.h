@@ -27,6 +27,29 @@ struct CalibrationRow {
   double precision = 0.0;  ///< percent; NaN when there are none
 };
 
+/// Confirmed landmarks in one texture class of their anchor: the grey-level standard deviation
+/// of the 7x7 patch of the left image round the anchor pixel in [min_grey, max_grey).
+struct TextureRow {
+  const char* name = "";
+  double min_grey = 0.0;
+  double max_grey = 0.0;
+  int64_t confirmed = 0;
+  int64_t correct = 0;
+  int64_t unjudged = 0;
+};
+
+/// Texture classes of TextureRow, in grey levels. A patch of noise alone has the image noise's
+/// standard deviation (the simulated worlds: 2 grey levels), so below twice that a patch is
+/// plain (a corner there is noise, its match right by chance), up to five times it faint, above
+/// it textured.
+constexpr double kPlainTextureGrey = 4.0;
+constexpr double kFaintTextureGrey = 10.0;
+constexpr int kTexturePatchRadius = 3;
+
+/// Grey-level standard deviation of the (2r+1)x(2r+1) patch centred on the pixel nearest (u, v),
+/// clipped at the image border [grey levels]. NaN when the pixel is outside the image.
+[[nodiscard]] double patchStdDevGrey(const ImageU8& image, double u_px, double v_px, int radius);
+
 struct LandmarkMetrics {
   // hypotheses.*
   int64_t hypotheses_total = 0;
@@ -65,6 +88,8 @@ struct LandmarkMetrics {
   double frames_to_confirm_median = 0.0;
   int64_t candidates = 0;
   std::vector<CalibrationRow> calibration;
+  /// Confirmed landmarks by the texture at their anchor: plain, faint, textured.
+  std::vector<TextureRow> by_texture;
 };
 
 /// Two correct landmarks whose true points are closer than this are one physical point [m]
@@ -77,8 +102,10 @@ class LandmarkEvaluator {
 
   /// Records the truth of this frame's hypotheses and of the landmarks created in it.
   /// `gt_depth` is the left camera's ground-truth depth of this frame and T_w_b_true the
-  /// frame's true body pose (for correct_distinct_points).
+  /// frame's true body pose (for correct_distinct_points); `left` the left image the frontend
+  /// matched (for the texture at new anchors).
   Status addFrame(const StereoHypotheses& hyps,
+                  const ImageU8& left,
                   const landmarks::FrameReport& report,
                   const landmarks::LandmarkDatabase& db,
                   const ImageF32& gt_depth,
@@ -96,6 +123,8 @@ class LandmarkEvaluator {
   [[nodiscard]] double anchorDisparityNear(const landmarks::Landmark& l) const;
   [[nodiscard]] double anchorDisparityFar(const landmarks::Landmark& l) const;
   /// Error of a landmark [m] (NaN when unjudged).
+  /// Grey-level standard deviation of the 7x7 patch at the anchor (NaN when unknown).
+  [[nodiscard]] double anchorTextureGrey(const landmarks::Landmark& l) const;
   [[nodiscard]] double errorM(const landmarks::Landmark& l) const;
 
  private:
@@ -108,6 +137,8 @@ class LandmarkEvaluator {
     /// edge) they tell which side of the edge a landmark took.
     float d_near = 0.0f;
     float d_far = 0.0f;
+    /// patchStdDevGrey at the anchor pixel in the anchor frame's left image [grey levels].
+    float texture_grey = 0.0f;
     /// True 3D point of the anchor pixel in the true world frame [m] (valid anchors only).
     Eigen::Vector3f p_true_w = Eigen::Vector3f::Zero();
   };

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 namespace twocam::eval {
@@ -25,6 +26,27 @@ TEST(LandmarkMetrics, DistinctPointsMergeWithinTheRadiusOnly) {
   EXPECT_EQ(countDistinctPoints({}, kRadiusM), 0);
   // Negative coordinates.
   EXPECT_EQ(countDistinctPoints({Eigen::Vector3f(-0.001f, -5, -5), Eigen::Vector3f(0.001f, -5, -5)}, kRadiusM), 1);
+}
+
+TEST(LandmarkMetrics, PatchStdDevIsTheGreyLevelSpreadOfTheClippedPatch) {
+  constexpr double kTol = 1e-9;
+  ImageU8 image(20, 10, 100);
+  EXPECT_NEAR(patchStdDevGrey(image, 10, 5, kTexturePatchRadius), 0.0, kTol);  // plain
+  // Columns alternating 90 (even) / 110 (odd): the 7x7 patch at (10, 5) spans columns 7..13,
+  // four odd and three even.
+  for (int v = 0; v < image.height; ++v) {
+    for (int u = 0; u < image.width; ++u) image(u, v) = (u % 2) ? 110 : 90;
+  }
+  const double mean = (3.0 * 90 + 4.0 * 110) / 7.0;
+  const double expected = std::sqrt((3.0 * (90 - mean) * (90 - mean) + 4.0 * (110 - mean) * (110 - mean)) / 7.0);
+  EXPECT_NEAR(patchStdDevGrey(image, 10, 5, kTexturePatchRadius), expected, kTol);
+  EXPECT_NEAR(patchStdDevGrey(image, 10.3, 4.8, kTexturePatchRadius), expected, kTol);  // nearest pixel
+  // At the corner the patch is clipped to 4x4 (columns 0..3: two of each): std exactly 10.
+  EXPECT_NEAR(patchStdDevGrey(image, 0, 0, kTexturePatchRadius), 10.0, kTol);
+  // Outside the image: NaN, not a read out of bounds.
+  EXPECT_TRUE(std::isnan(patchStdDevGrey(image, -1, 5, kTexturePatchRadius)));
+  EXPECT_TRUE(std::isnan(patchStdDevGrey(image, 10, 10, kTexturePatchRadius)));
+  EXPECT_TRUE(std::isnan(patchStdDevGrey(ImageU8(), 0, 0, kTexturePatchRadius)));
 }
 
 }  // namespace

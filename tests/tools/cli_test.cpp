@@ -271,7 +271,7 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
     EXPECT_TRUE(fs::exists(dir + "/a/" + f)) << f;
   }
   const std::string metrics = readFile(dir + "/a/metrics.json");
-  for (const char* key : {"\"octomap\"", "\"phantom_fraction\"", "\"ate_rmse_m\"", "\"precision\"", "\"seed\": 1",
+  for (const char* key : {"\"octomap\"", "\"phantom_fraction\"", "\"ate_rmse_m\"", "\"precision\"", "\"by_texture\"", "\"seed\": 1",
                           "\"odometry\": true"}) {
     EXPECT_NE(metrics.find(key), std::string::npos) << key << "\n" << metrics;
   }
