@@ -19,25 +19,34 @@ def fmt(value, pattern):
     return "n/a" if value is None else pattern.format(value)
 
 
-def texture_table(out):
-    print("| world | odometry noise | policy | plain: correct / confirmed | faint | textured |")
-    print("| --- | --- | --- | --- | --- | --- |")
+def runs(out):
+    """Yields (world, noise, policy, metrics.json contents or None when missing) in table order."""
     for w in WORLDS:
         for n in NOISE:
             for p in POLICIES:
                 path = os.path.join(out, f"out_{w}_n{n}_{p}", "metrics.json")
                 if not os.path.exists(path):
+                    yield w, n, p, None
                     continue
                 with open(path) as f:
-                    rows = json.load(f).get("by_texture")
-                if rows is None:
-                    print(f"| {w} | x{n} | {p} | no by_texture (older run) | | |")
-                    continue
-                cells = []
-                for r in rows:
-                    prec = fmt(100.0 * r["correct"] / r["confirmed"] if r["confirmed"] else None, "{:.1f} %")
-                    cells.append(f"{r['correct']} / {r['confirmed']} ({prec})")
-                print(f"| {w} | x{n} | {p} | " + " | ".join(cells) + " |")
+                    yield w, n, p, json.load(f)
+
+
+def texture_table(out):
+    print("| world | odometry noise | policy | plain: correct / confirmed | faint | textured |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for w, n, p, metrics in runs(out):
+        if metrics is None:
+            continue
+        rows = metrics.get("by_texture")
+        if rows is None:
+            print(f"| {w} | x{n} | {p} | no by_texture (older run) | | |")
+            continue
+        cells = []
+        for r in rows:
+            prec = fmt(100.0 * r["correct"] / r["confirmed"] if r["confirmed"] else None, "{:.1f} %")
+            cells.append(f"{r['correct']} / {r['confirmed']} ({prec})")
+        print(f"| {w} | x{n} | {p} | " + " | ".join(cells) + " |")
 
 
 def main():
@@ -53,28 +62,24 @@ def main():
     print("| world | odometry noise | policy | confirmed | correct | precision | precision (judged) "
           "| median error [mm] | frames to confirm |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for w in WORLDS:
-        for n in NOISE:
-            for p in POLICIES:
-                path = os.path.join(out, f"out_{w}_n{n}_{p}", "metrics.json")
-                if not os.path.exists(path):
-                    print(f"| {w} | x{n} | {p} | missing | | | | | |")
-                    continue
-                with open(path) as f:
-                    lm = json.load(f)["landmarks"]
-                err = lm.get("median_error_m")
-                # From the counts, so the table reads the same from any version's metrics.json:
-                # METRICS.md precision = correct / confirmed; "judged" leaves out landmarks whose
-                # anchor pixel has no ground truth (depth edges).
-                conf, corr = lm["confirmed"], lm["correct_confirmed"]
-                judged = conf - lm.get("unjudged_confirmed", 0)
-                lm["precision"] = 100.0 * corr / conf if conf else None
-                lm["precision_judged"] = 100.0 * corr / judged if judged else None
-                print(f"| {w} | x{n} | {p} | {lm['confirmed']} | {lm['correct_confirmed']} "
-                      f"| {fmt(lm.get('precision'), '{:.2f} %')} "
-                      f"| {fmt(lm.get('precision_judged'), '{:.2f} %')} "
-                      f"| {fmt(None if err is None else 1000 * err, '{:.1f}')} "
-                      f"| {fmt(lm.get('frames_to_confirm_median'), '{:.0f}')} |")
+    for w, n, p, metrics in runs(out):
+        if metrics is None:
+            print(f"| {w} | x{n} | {p} | missing | | | | | |")
+            continue
+        lm = metrics["landmarks"]
+        err = lm.get("median_error_m")
+        # From the counts, so the table reads the same from any version's metrics.json:
+        # METRICS.md precision = correct / confirmed; "judged" leaves out landmarks whose
+        # anchor pixel has no ground truth (depth edges).
+        conf, corr = lm["confirmed"], lm["correct_confirmed"]
+        judged = conf - lm.get("unjudged_confirmed", 0)
+        lm["precision"] = 100.0 * corr / conf if conf else None
+        lm["precision_judged"] = 100.0 * corr / judged if judged else None
+        print(f"| {w} | x{n} | {p} | {lm['confirmed']} | {lm['correct_confirmed']} "
+              f"| {fmt(lm.get('precision'), '{:.2f} %')} "
+              f"| {fmt(lm.get('precision_judged'), '{:.2f} %')} "
+              f"| {fmt(None if err is None else 1000 * err, '{:.1f}')} "
+              f"| {fmt(lm.get('frames_to_confirm_median'), '{:.0f}')} |")
 
 
 if __name__ == "__main__":
