@@ -44,19 +44,25 @@ Status findMav0(const std::string& dir, std::string* mav0) {
     *mav0 = (fs::path(dir) / "mav0").string();
     return Status::ok();
   }
-  if (fs::is_directory(fs::path(dir) / "cam0", ec) && fs::is_directory(fs::path(dir) / "cam1", ec)) {
+  if (fs::is_directory(fs::path(dir) / "cam0", ec) &&
+      fs::is_directory(fs::path(dir) / "cam1", ec)) {
     *mav0 = dir;
     return Status::ok();
   }
-  return Status::error("'" + dir + "' is not a EuRoC sequence: it has neither mav0/ nor cam0/ and cam1/");
+  return Status::error("'" + dir +
+                       "' is not a EuRoC sequence: it has neither mav0/ nor cam0/ and cam1/");
 }
 
-Status loadRaw(const std::string& path, const CameraCalibration& calibration, const char* camera, ImageU8* image) {
+Status loadRaw(const std::string& path,
+               const CameraCalibration& calibration,
+               const char* camera,
+               ImageU8* image) {
   if (Status st = frontend::loadGrey(path, image); !st) return st;
   if (image->width != calibration.width || image->height != calibration.height) {
     std::ostringstream os;
-    os << "image '" << path << "' is " << image->width << "x" << image->height << " px but " << camera
-       << "/sensor.yaml gives resolution " << calibration.width << "x" << calibration.height;
+    os << "image '" << path << "' is " << image->width << "x" << image->height << " px but "
+       << camera << "/sensor.yaml gives resolution " << calibration.width << "x"
+       << calibration.height;
     return Status::error(os.str());
   }
   return Status::ok();
@@ -66,19 +72,24 @@ Status loadRaw(const std::string& path, const CameraCalibration& calibration, co
 
 int runImportEuroc(const ImportEurocArgs& args) {
   const auto t_start = std::chrono::steady_clock::now();
-  if (args.max_frames && *args.max_frames < 1) return fail("--max-frames " + std::to_string(*args.max_frames) + ": must be >= 1");
+  if (args.max_frames && *args.max_frames < 1)
+    return fail("--max-frames " + std::to_string(*args.max_frames) + ": must be >= 1");
   std::error_code ec;
-  if (fs::is_directory(args.output_path, ec)) return fail("output '" + args.output_path + "' is a folder; give a .rawlog file path");
+  if (fs::is_directory(args.output_path, ec))
+    return fail("output '" + args.output_path + "' is a folder; give a .rawlog file path");
 
   std::string mav0;
   if (Status st = findMav0(args.input_dir, &mav0); !st) return fail(st.message());
   CameraCalibration cam0;
   CameraCalibration cam1;
-  if (Status st = io::loadEurocStereoCalibration(mav0, &cam0, &cam1); !st) return fail(st.message());
+  if (Status st = io::loadEurocStereoCalibration(mav0, &cam0, &cam1); !st)
+    return fail(st.message());
   io::EurocStereoIndex index;
   if (Status st = io::loadEurocStereoIndex(mav0, &index); !st) return fail(st.message());
   frontend::StereoRectifier rectifier;
-  if (Status st = frontend::StereoRectifier::create(cam0, cam1, frontend::RectifyOptions(), &rectifier); !st) {
+  if (Status st =
+          frontend::StereoRectifier::create(cam0, cam1, frontend::RectifyOptions(), &rectifier);
+      !st) {
     return fail("cannot rectify " + mav0 + ": " + st.message());
   }
   const StereoRig& rig = rectifier.rig();
@@ -86,7 +97,9 @@ int runImportEuroc(const ImportEurocArgs& args) {
   // The writer goes through "<output>.partial" and removes it when destroyed unfinished, so
   // every early return below leaves no log and keeps an older one at the output path.
   std::unique_ptr<io::RawlogWriter> writer;
-  if (Status st = io::RawlogWriter::open(args.output_path, rig, io::RawlogWriterOptions(), &writer); !st) return fail(st.message());
+  if (Status st = io::RawlogWriter::open(args.output_path, rig, io::RawlogWriterOptions(), &writer);
+      !st)
+    return fail(st.message());
 
   const int available = static_cast<int>(index.t_ns.size());
   const int n = args.max_frames ? std::min(*args.max_frames, available) : available;
@@ -99,8 +112,10 @@ int runImportEuroc(const ImportEurocArgs& args) {
   StereoFrame frame;
   for (int k = 0; k < n; ++k) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (Status st = loadRaw(index.left_paths[k], cam0, "cam0", &raw_left); !st) return fail("frame " + std::to_string(k) + ": " + st.message());
-    if (Status st = loadRaw(index.right_paths[k], cam1, "cam1", &raw_right); !st) return fail("frame " + std::to_string(k) + ": " + st.message());
+    if (Status st = loadRaw(index.left_paths[k], cam0, "cam0", &raw_left); !st)
+      return fail("frame " + std::to_string(k) + ": " + st.message());
+    if (Status st = loadRaw(index.right_paths[k], cam1, "cam1", &raw_right); !st)
+      return fail("frame " + std::to_string(k) + ": " + st.message());
     const auto t1 = std::chrono::steady_clock::now();
     frame.t_ns = index.t_ns[k];
     if (Status st = rectifier.rectify(raw_left, raw_right, &frame.left, &frame.right); !st) {
@@ -116,21 +131,45 @@ int runImportEuroc(const ImportEurocArgs& args) {
     bar.update(k + 1);
   }
   if (Status st = writer->finish(); !st) return fail(st.message());
-  const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double total_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 
-  std::printf("imported %d of %d stereo pairs from %s into %s (images in %s)\n", n, available, mav0.c_str(),
-              args.output_path.c_str(), writer->imagesDir().c_str());
+  std::printf("imported %d of %d stereo pairs from %s into %s (images in %s)\n",
+              n,
+              available,
+              mav0.c_str(),
+              args.output_path.c_str(),
+              writer->imagesDir().c_str());
   std::printf("dropped %zu cam0 and %zu cam1 time stamps without a partner in the other camera\n",
-              index.unmatched_left_t_ns.size(), index.unmatched_right_t_ns.size());
-  std::printf("rectified rig: %dx%d px, fx = fy = %.3f px, cx = %.3f px, cy = %.3f px, baseline = %.4f m\n", rig.width_px,
-              rig.height_px, rig.fx_px, rig.cx_px, rig.cy_px, rig.baseline_m);
+              index.unmatched_left_t_ns.size(),
+              index.unmatched_right_t_ns.size());
+  std::printf(
+      "rectified rig: %dx%d px, fx = fy = %.3f px, cx = %.3f px, cy = %.3f px, baseline = %.4f m\n",
+      rig.width_px,
+      rig.height_px,
+      rig.fx_px,
+      rig.cx_px,
+      rig.cy_px,
+      rig.baseline_m);
   const Eigen::Vector3d t_b_cl = rig.T_b_cl.translation();
-  const double rect_deg = Eigen::AngleAxisd(rectifier.R_rect_raw(frontend::StereoSide::kLeft)).angle() * 180.0 / M_PI;
-  std::printf("left rectified camera in the body (IMU) frame: t_b_cl = (%.4f, %.4f, %.4f) m, rotated %.2f deg from raw cam0; "
-              "no odometry, no ground truth\n",
-              t_b_cl.x(), t_b_cl.y(), t_b_cl.z(), rect_deg);
-  std::printf("%.2f s in all (%.1f frames/s); per frame median: load %.1f ms, rectify %.1f ms, write %.1f ms\n", total_s,
-              total_s > 0.0 ? n / total_s : 0.0, median(load_ms), median(rectify_ms), median(write_ms));
+  const double rect_deg =
+      Eigen::AngleAxisd(rectifier.R_rect_raw(frontend::StereoSide::kLeft)).angle() * 180.0 / M_PI;
+  std::printf(
+      "left rectified camera in the body (IMU) frame: t_b_cl = (%.4f, %.4f, %.4f) m, rotated %.2f "
+      "deg from raw cam0; "
+      "no odometry, no ground truth\n",
+      t_b_cl.x(),
+      t_b_cl.y(),
+      t_b_cl.z(),
+      rect_deg);
+  std::printf(
+      "%.2f s in all (%.1f frames/s); per frame median: load %.1f ms, rectify %.1f ms, write %.1f "
+      "ms\n",
+      total_s,
+      total_s > 0.0 ? n / total_s : 0.0,
+      median(load_ms),
+      median(rectify_ms),
+      median(write_ms));
   return 0;
 }
 

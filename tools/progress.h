@@ -2,30 +2,41 @@
 /// A text progress bar on stderr: redrawn in place on a terminal, a line every 10 % otherwise
 /// (so CI logs stay short).
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
 #include <string>
-
-#include <unistd.h>
 
 namespace twocam::tools {
 
 class ProgressBar {
  public:
   ProgressBar(std::string label, int total, bool enabled = true)
-      : label_(std::move(label)), total_(total), enabled_(enabled), tty_(isatty(fileno(stderr)) != 0),
+      : label_(std::move(label)),
+        total_(total),
+        enabled_(enabled),
+        tty_(isatty(fileno(stderr)) != 0),
         start_(std::chrono::steady_clock::now()) {}
 
   void update(int done) {
     if (!enabled_ || total_ <= 0) return;
     const int pct = static_cast<int>(100.0 * done / total_);
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     const double rate = s > 0 ? done / s : 0.0;
     if (tty_) {
       constexpr int kWidth = 30;
       const int filled = kWidth * done / total_;
-      std::fprintf(stderr, "\r%s [%s%s] %d/%d %3d%% %.1f/s ", label_.c_str(), std::string(filled, '#').c_str(),
-                   std::string(kWidth - filled, '.').c_str(), done, total_, pct, rate);
+      std::fprintf(stderr,
+                   "\r%s [%s%s] %d/%d %3d%% %.1f/s ",
+                   label_.c_str(),
+                   std::string(filled, '#').c_str(),
+                   std::string(kWidth - filled, '.').c_str(),
+                   done,
+                   total_,
+                   pct,
+                   rate);
       if (done == total_) std::fprintf(stderr, "\n");
       std::fflush(stderr);
     } else if (pct / 10 != last_decile_ || done == total_) {

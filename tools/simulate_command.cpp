@@ -1,13 +1,13 @@
 #include "simulate_command.h"
 
 #include <algorithm>
-#include <cmath>
-#include <sstream>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <vector>
 
 #include "io/pictures.h"
@@ -37,7 +37,9 @@ double median(std::vector<double> v) {
 
 std::string worldSidecarPath(const std::string& log_path) {
   const fs::path p(log_path);
-  return ((p.has_parent_path() ? p.parent_path() : fs::path(".")) / (p.stem().string() + ".world.yaml")).string();
+  return ((p.has_parent_path() ? p.parent_path() : fs::path(".")) /
+          (p.stem().string() + ".world.yaml"))
+      .string();
 }
 
 /// Top-down outline of every shape as polylines (x, y) for the trajectory plot: vertical
@@ -46,7 +48,8 @@ std::string worldOutlineCsv(const sim::World& world) {
   std::ostringstream os;
   os << "shape,name,kind,x_m,y_m\n";
   auto emit = [&](size_t i, const std::string& kind, const std::vector<Eigen::Vector3d>& pts) {
-    for (const auto& p : pts) os << i << "," << world.shapes[i].name << "," << kind << "," << p.x() << "," << p.y() << "\n";
+    for (const auto& p : pts)
+      os << i << "," << world.shapes[i].name << "," << kind << "," << p.x() << "," << p.y() << "\n";
   };
   for (size_t i = 0; i < world.shapes.size(); ++i) {
     const sim::Shape& s = world.shapes[i];
@@ -55,8 +58,10 @@ std::string worldOutlineCsv(const sim::World& world) {
       case sim::ShapeKind::kPlane: {
         const double hx = 0.5 * s.size_m.x(), hy = 0.5 * s.size_m.y();
         const bool horizontal = std::abs(T.linear().col(2).z()) > 0.9;
-        std::vector<Eigen::Vector3d> c = {T * Eigen::Vector3d(-hx, -hy, 0), T * Eigen::Vector3d(hx, -hy, 0),
-                                          T * Eigen::Vector3d(hx, hy, 0), T * Eigen::Vector3d(-hx, hy, 0)};
+        std::vector<Eigen::Vector3d> c = {T * Eigen::Vector3d(-hx, -hy, 0),
+                                          T * Eigen::Vector3d(hx, -hy, 0),
+                                          T * Eigen::Vector3d(hx, hy, 0),
+                                          T * Eigen::Vector3d(-hx, hy, 0)};
         if (horizontal) {
           c.push_back(c.front());
           emit(i, "floor", c);
@@ -70,16 +75,21 @@ std::string worldOutlineCsv(const sim::World& world) {
       }
       case sim::ShapeKind::kBox: {
         const Eigen::Vector3d h = 0.5 * s.size_m;
-        emit(i, "box", {T * Eigen::Vector3d(-h.x(), -h.y(), 0), T * Eigen::Vector3d(h.x(), -h.y(), 0),
-                        T * Eigen::Vector3d(h.x(), h.y(), 0), T * Eigen::Vector3d(-h.x(), h.y(), 0),
-                        T * Eigen::Vector3d(-h.x(), -h.y(), 0)});
+        emit(i,
+             "box",
+             {T * Eigen::Vector3d(-h.x(), -h.y(), 0),
+              T * Eigen::Vector3d(h.x(), -h.y(), 0),
+              T * Eigen::Vector3d(h.x(), h.y(), 0),
+              T * Eigen::Vector3d(-h.x(), h.y(), 0),
+              T * Eigen::Vector3d(-h.x(), -h.y(), 0)});
         break;
       }
       case sim::ShapeKind::kCylinder: {
         std::vector<Eigen::Vector3d> c;
         for (int k = 0; k <= 24; ++k) {
           const double a = 2.0 * M_PI * k / 24;
-          c.push_back(T * Eigen::Vector3d(s.size_m.x() * std::cos(a), s.size_m.x() * std::sin(a), 0));
+          c.push_back(T *
+                      Eigen::Vector3d(s.size_m.x() * std::cos(a), s.size_m.x() * std::sin(a), 0));
         }
         emit(i, "cylinder", c);
         break;
@@ -101,29 +111,35 @@ int runSimulate(const SimulateArgs& args) {
     world.odometry_noise = sim::scaledOdometryNoise(world.odometry_noise, f);
   }
   if (args.frames) {
-    if (*args.frames < 1) return fail("--frames " + std::to_string(*args.frames) + ": must be >= 1");
+    if (*args.frames < 1)
+      return fail("--frames " + std::to_string(*args.frames) + ": must be >= 1");
     world.frames = *args.frames;
   }
   const fs::path out(args.output_path);
   const std::string preview_dir =
-      !args.preview_dir.empty()
-          ? args.preview_dir
-          : ((out.has_parent_path() ? out.parent_path() : fs::path(".")) / (out.stem().string() + "_preview")).string();
+      !args.preview_dir.empty() ? args.preview_dir
+                                : ((out.has_parent_path() ? out.parent_path() : fs::path(".")) /
+                                   (out.stem().string() + "_preview"))
+                                      .string();
 
   const auto t_setup = std::chrono::steady_clock::now();
   std::unique_ptr<sim::Simulator> simulator;
-  if (Status st = sim::Simulator::create(world, sim::RendererOptions{}, &simulator); !st) return fail(st.message());
+  if (Status st = sim::Simulator::create(world, sim::RendererOptions{}, &simulator); !st)
+    return fail(st.message());
   io::RawlogWriterOptions wopt;
   const Eigen::AlignedBox3d bounds = sim::worldBounds(world);
   wopt.max_depth_m = std::max(1.0, bounds.diagonal().norm());
   std::unique_ptr<io::RawlogWriter> writer;
-  if (Status st = io::RawlogWriter::open(args.output_path, world.rig, wopt, &writer); !st) return fail(st.message());
-  const double setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
+  if (Status st = io::RawlogWriter::open(args.output_path, world.rig, wopt, &writer); !st)
+    return fail(st.message());
+  const double setup_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
 
   const int n = world.frames;
   const int kSheetRows = std::min(4, n);
   std::vector<int> sheet_frames;
-  for (int k = 0; k < kSheetRows; ++k) sheet_frames.push_back(kSheetRows == 1 ? 0 : k * (n - 1) / (kSheetRows - 1));
+  for (int k = 0; k < kSheetRows; ++k)
+    sheet_frames.push_back(kSheetRows == 1 ? 0 : k * (n - 1) / (kSheetRows - 1));
   std::vector<io::ContactSheetRow> sheet;
   std::ostringstream traj;
   traj << "frame,t_s,true_x_m,true_y_m,true_yaw_rad,odom_x_m,odom_y_m,odom_yaw_rad\n";
@@ -137,27 +153,41 @@ int runSimulate(const SimulateArgs& args) {
     const auto ts = std::chrono::steady_clock::now();
     simulator->next(&frame);
     const auto tw = std::chrono::steady_clock::now();
-    if (Status st = writer->write(frame.stereo, &frame.odometry, &frame.ground_truth); !st) return fail(st.message());
+    if (Status st = writer->write(frame.stereo, &frame.odometry, &frame.ground_truth); !st)
+      return fail(st.message());
     sim_ms.push_back(std::chrono::duration<double, std::milli>(tw - ts).count());
-    write_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tw).count());
+    write_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tw).count());
     render_ms.push_back(frame.render_stats.ms_render);
     depth_ms.push_back(frame.render_stats.ms_depth);
     unresolved += frame.render_stats.pixels_unresolved;
     const Eigen::Isometry3d& T = frame.ground_truth.T_w_b;
     const double true_yaw = std::atan2(T.linear()(1, 0), T.linear()(0, 0));
     char line[256];
-    std::snprintf(line, sizeof(line), "%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", k, (frame.stereo.t_ns - sim::kStartTimeNs) * 1e-9,
-                  T.translation().x(), T.translation().y(), true_yaw, frame.odometry.pose.x_m, frame.odometry.pose.y_m,
+    std::snprintf(line,
+                  sizeof(line),
+                  "%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n",
+                  k,
+                  (frame.stereo.t_ns - sim::kStartTimeNs) * 1e-9,
+                  T.translation().x(),
+                  T.translation().y(),
+                  true_yaw,
+                  frame.odometry.pose.x_m,
+                  frame.odometry.pose.y_m,
                   frame.odometry.pose.yaw_rad);
     traj << line;
     if (std::find(sheet_frames.begin(), sheet_frames.end(), k) != sheet_frames.end()) {
-      sheet.push_back({"frame " + std::to_string(k), frame.stereo.left, frame.stereo.right, frame.ground_truth.depth_left});
+      sheet.push_back({"frame " + std::to_string(k),
+                       frame.stereo.left,
+                       frame.stereo.right,
+                       frame.ground_truth.depth_left});
     }
     bar.update(k + 1);
   }
   // Timed up to here: moving the finished log into place (and deleting an older log's image
   // folder it replaces) is not per-frame work.
-  const double loop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double loop_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (Status st = writer->finish(); !st) return fail(st.message());
   const double fps = n / loop_s;
   // The world file travels with the log ("<stem>.world.yaml") so that `twocam run` can measure
@@ -169,8 +199,9 @@ int runSimulate(const SimulateArgs& args) {
     text << in.rdbuf();
     const std::string tmp = sidecar + ".partial";
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << "# Copy of " << args.world_path << " written by twocam simulate beside " << out.filename().string()
-      << " (seed " << world.seed << "); texture paths relative to the original file.\n"
+    f << "# Copy of " << args.world_path << " written by twocam simulate beside "
+      << out.filename().string() << " (seed " << world.seed
+      << "); texture paths relative to the original file.\n"
       << text.str();
     f.close();
     std::error_code rename_ec;
@@ -182,7 +213,8 @@ int runSimulate(const SimulateArgs& args) {
   std::error_code ec;
   fs::create_directories(preview_dir, ec);
   if (ec) return fail("cannot create preview folder '" + preview_dir + "': " + ec.message());
-  if (Status st = io::writeContactSheet(sheet, preview_dir + "/contact_sheet.png"); !st) return fail(st.message());
+  if (Status st = io::writeContactSheet(sheet, preview_dir + "/contact_sheet.png"); !st)
+    return fail(st.message());
   {
     std::ofstream f(preview_dir + "/trajectory.csv");
     f << traj.str();
@@ -195,20 +227,36 @@ int runSimulate(const SimulateArgs& args) {
   }
   {
     std::ofstream f(preview_dir + "/simulate.json");
-    f << "{\n  \"world\": \"" << world.name << "\",\n  \"world_file\": \"" << args.world_path << "\",\n  \"seed\": " << world.seed
-      << ",\n  \"odometry_noise_scale\": " << args.odometry_noise_scale.value_or(1.0) << ",\n  \"frames\": " << n << ",\n  \"width_px\": " << world.rig.width_px << ",\n  \"height_px\": " << world.rig.height_px
-      << ",\n  \"setup_s\": " << setup_s << ",\n  \"loop_s\": " << loop_s << ",\n  \"frames_per_s\": " << fps
-      << ",\n  \"render_ms_median\": " << median(render_ms) << ",\n  \"gt_depth_ms_median\": " << median(depth_ms)
-      << ",\n  \"simulate_ms_median\": " << median(sim_ms) << ",\n  \"write_ms_median\": " << median(write_ms)
+    f << "{\n  \"world\": \"" << world.name << "\",\n  \"world_file\": \"" << args.world_path
+      << "\",\n  \"seed\": " << world.seed
+      << ",\n  \"odometry_noise_scale\": " << args.odometry_noise_scale.value_or(1.0)
+      << ",\n  \"frames\": " << n << ",\n  \"width_px\": " << world.rig.width_px
+      << ",\n  \"height_px\": " << world.rig.height_px << ",\n  \"setup_s\": " << setup_s
+      << ",\n  \"loop_s\": " << loop_s << ",\n  \"frames_per_s\": " << fps
+      << ",\n  \"render_ms_median\": " << median(render_ms)
+      << ",\n  \"gt_depth_ms_median\": " << median(depth_ms)
+      << ",\n  \"simulate_ms_median\": " << median(sim_ms)
+      << ",\n  \"write_ms_median\": " << median(write_ms)
       << ",\n  \"gt_depth_unresolved_pixels\": " << unresolved << "\n}\n";
     if (!f) return fail("cannot write '" + preview_dir + "/simulate.json'");
   }
-  std::printf("wrote %d stereo frames with odometry and ground truth to %s (images in %s)\n", n, args.output_path.c_str(),
+  std::printf("wrote %d stereo frames with odometry and ground truth to %s (images in %s)\n",
+              n,
+              args.output_path.c_str(),
               writer->imagesDir().c_str());
-  std::printf("%.1f frames/s including writing (%.2f s for %d frames; setup %.2f s; render %.1f ms, GT depth %.1f ms median)\n", fps,
-              loop_s, n, setup_s, median(render_ms), median(depth_ms));
+  std::printf(
+      "%.1f frames/s including writing (%.2f s for %d frames; setup %.2f s; render %.1f ms, GT "
+      "depth %.1f ms median)\n",
+      fps,
+      loop_s,
+      n,
+      setup_s,
+      median(render_ms),
+      median(depth_ms));
   std::printf("world geometry for evaluation: %s\n", worldSidecarPath(args.output_path).c_str());
-  std::printf("preview: %s/contact_sheet.png, %s/trajectory.csv\n", preview_dir.c_str(), preview_dir.c_str());
+  std::printf("preview: %s/contact_sheet.png, %s/trajectory.csv\n",
+              preview_dir.c_str(),
+              preview_dir.c_str());
   return 0;
 }
 

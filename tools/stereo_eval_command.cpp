@@ -4,7 +4,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-
 #include <opencv2/imgcodecs.hpp>
 
 #include "eval/disparity_io.h"
@@ -27,7 +26,8 @@ int fail(const std::string& message) {
 Status checkWritable(const std::string& path) {
   if (path.empty()) return Status::ok();
   const std::filesystem::path p(path);
-  const std::filesystem::path dir = p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
+  const std::filesystem::path dir =
+      p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
   if (!std::filesystem::is_directory(dir)) return Status::error(path + ": folder does not exist");
   if (std::filesystem::is_directory(p)) return Status::error(path + ": is a folder");
   return Status::ok();
@@ -40,10 +40,12 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 int runStereoEval(const StereoEvalArgs& args) {
-  if (args.mode != "dense" && args.mode != "salient") return fail("--mode must be dense or salient, got '" + args.mode + "'");
+  if (args.mode != "dense" && args.mode != "salient")
+    return fail("--mode must be dense or salient, got '" + args.mode + "'");
   if (!(args.gt_scale > 0.0)) return fail("--gt-scale must be > 0");
   if (args.birchfield_tomasi && args.mode != "salient") {
-    return fail("--birchfield-tomasi applies to --mode salient only (the dense matcher is plain SAD)");
+    return fail(
+        "--birchfield-tomasi applies to --mode salient only (the dense matcher is plain SAD)");
   }
   if (args.border_px < 0) return fail("--border must be >= 0");
   if (Status s = checkWritable(args.output_json); !s) return fail(s.message());
@@ -53,27 +55,30 @@ int runStereoEval(const StereoEvalArgs& args) {
   if (Status s = frontend::loadGrey(args.left_path, &left); !s) return fail(s.message());
   if (Status s = frontend::loadGrey(args.right_path, &right); !s) return fail(s.message());
   if (left.width != right.width || left.height != right.height) {
-    return fail("left (" + std::to_string(left.width) + "x" + std::to_string(left.height) + ") and right (" +
-                std::to_string(right.width) + "x" + std::to_string(right.height) + ") images differ in size");
+    return fail("left (" + std::to_string(left.width) + "x" + std::to_string(left.height) +
+                ") and right (" + std::to_string(right.width) + "x" + std::to_string(right.height) +
+                ") images differ in size");
   }
   if (args.max_disp <= 0) return fail("--max-disp must be > 0");
   if (args.max_disp >= left.width) {
-    return fail("--max-disp " + std::to_string(args.max_disp) + " is not smaller than the image width " +
-                std::to_string(left.width));
+    return fail("--max-disp " + std::to_string(args.max_disp) +
+                " is not smaller than the image width " + std::to_string(left.width));
   }
   eval::DisparityGroundTruth gt;
-  if (Status s = eval::loadDisparityGroundTruth(args.gt_path, args.gt_scale, args.gt_invalid, &gt); !s) {
+  if (Status s = eval::loadDisparityGroundTruth(args.gt_path, args.gt_scale, args.gt_invalid, &gt);
+      !s) {
     return fail(s.message());
   }
   if (gt.d_px.width != left.width || gt.d_px.height != left.height) {
     return fail(args.gt_path + ": ground truth is " + std::to_string(gt.d_px.width) + "x" +
-                std::to_string(gt.d_px.height) + " but the images are " + std::to_string(left.width) + "x" +
-                std::to_string(left.height));
+                std::to_string(gt.d_px.height) + " but the images are " +
+                std::to_string(left.width) + "x" + std::to_string(left.height));
   }
   ImageU8 mask;
   if (!args.mask_path.empty()) {
     if (Status s = eval::loadMask(args.mask_path, &mask); !s) return fail(s.message());
-    if (mask.width != left.width || mask.height != left.height) return fail(args.mask_path + ": mask size differs from the images");
+    if (mask.width != left.width || mask.height != left.height)
+      return fail(args.mask_path + ": mask size differs from the images");
   }
   if (args.exclude_occluded) {
     ImageU8 visible;
@@ -97,28 +102,36 @@ int runStereoEval(const StereoEvalArgs& args) {
     options.max_disparity_px = args.max_disp;
     if (args.window_px > 0) options.window_width_px = args.window_px;
     if (!args.post.empty()) {
-      if (Status s = frontend::parsePostSteps(args.post, &options.steps); !s) return fail(s.message());
+      if (Status s = frontend::parsePostSteps(args.post, &options.steps); !s)
+        return fail(s.message());
     }
     if (Status s = options.validate(); !s) return fail(s.message());
     frontend::DenseSadMatcher matcher;
     ImageF32 disparity;
-    if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());  // warm-up
+    if (Status s = matcher.compute(left, right, options, &disparity); !s)
+      return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
     const double ms = msSince(t0);
-    if (Status s = eval::evaluateDense(disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics); !s) {
+    if (Status s = eval::evaluateDense(
+            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
+        !s) {
       return fail(s.message());
     }
     eval::setTiming(ms, left.width, left.height, &metrics);
     if (!args.output_image.empty()) {
-      if (Status s = eval::renderDenseEvalPicture(left, disparity, gt, args.max_disp, eval_options, &picture); !s) {
+      if (Status s = eval::renderDenseEvalPicture(
+              left, disparity, gt, args.max_disp, eval_options, &picture);
+          !s) {
         return fail(s.message());
       }
     }
   } else {
     frontend::HarrisOptions harris;
     harris.target_count = std::max(
-        1, static_cast<int>(args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
+        1,
+        static_cast<int>(
+            args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
     harris.max_corners = 2 * harris.target_count;
     frontend::SalientSadOptions sad;
     sad.max_disparity_px = args.max_disp;
@@ -126,7 +139,8 @@ int runStereoEval(const StereoEvalArgs& args) {
     sad.birchfield_tomasi = args.birchfield_tomasi;
     if (Status s = harris.validate(); !s) return fail(s.message());
     if (Status s = sad.validate(); !s) return fail(s.message());
-    if (args.max_disp + sad.window_width_px > left.width) return fail("--max-disp plus the window is wider than the image");
+    if (args.max_disp + sad.window_width_px > left.width)
+      return fail("--max-disp plus the window is wider than the image");
     // The detector adapts its threshold from frame to frame; a single image is shown to it a few
     // times so that the count settles near the target, and the last pass is timed.
     frontend::HarrisDetector detector(harris);
@@ -136,17 +150,23 @@ int runStereoEval(const StereoEvalArgs& args) {
     for (int pass = 0; pass < kSettlingPasses; ++pass) {
       if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
     }
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s) return fail(s.message());
+    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
+      return fail(s.message());
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s) return fail(s.message());
+    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
+      return fail(s.message());
     const double ms = msSince(t0);
-    if (Status s = eval::evaluateSalient(hyps, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics); !s) {
+    if (Status s =
+            eval::evaluateSalient(hyps, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
+        !s) {
       return fail(s.message());
     }
     eval::setTiming(ms, left.width, left.height, &metrics);
     if (!args.output_image.empty()) {
-      if (Status s = eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, &picture); !s) {
+      if (Status s =
+              eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, &picture);
+          !s) {
         return fail(s.message());
       }
     }
@@ -158,7 +178,8 @@ int runStereoEval(const StereoEvalArgs& args) {
   }
   if (!args.output_image.empty()) {
     try {
-      if (!cv::imwrite(args.output_image, picture)) return fail(args.output_image + ": cannot write the picture");
+      if (!cv::imwrite(args.output_image, picture))
+        return fail(args.output_image + ": cannot write the picture");
     } catch (const cv::Exception& e) {
       return fail(args.output_image + ": cannot write the picture (" + e.what() + ")");
     }

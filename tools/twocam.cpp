@@ -1,71 +1,149 @@
 /// twocam: the command-line program. Thin: parses arguments and calls library code.
 
+#include <CLI/CLI.hpp>
 #include <iostream>
 
-#include <CLI/CLI.hpp>
-
 #include "import_euroc_command.h"
+#include "run_command.h"
 #include "simulate_command.h"
 #include "stereo_eval_command.h"
-#include "run_command.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"TwoCam: stereo landmark mapping for mobile robots (simulator, frontend, landmarks, mapping)"};
+  CLI::App app{
+      "TwoCam: stereo landmark mapping for mobile robots (simulator, frontend, landmarks, "
+      "mapping)"};
   app.require_subcommand(1);
 
   twocam::tools::SimulateArgs sim;
   int sim_frames = 0;
   uint64_t sim_seed = 0;
-  auto* simulate = app.add_subcommand("simulate", "Render a world into an MRPT rawlog of stereo frames, wheel odometry and ground truth");
-  simulate->add_option("world", sim.world_path, "World file (YAML, see worlds/README.md)")->required();
-  simulate->add_option("-o,--output", sim.output_path, "Output rawlog path (external images go to <stem>_Images/)")->required();
-  auto* frames_opt = simulate->add_option("--frames", sim_frames, "Number of frames (default: the world's 'frames')");
-  auto* seed_opt = simulate->add_option("--seed", sim_seed, "Seed of all random draws (default: the world's 'seed')");
+  auto* simulate = app.add_subcommand(
+      "simulate",
+      "Render a world into an MRPT rawlog of stereo frames, wheel odometry and ground truth");
+  simulate->add_option("world", sim.world_path, "World file (YAML, see worlds/README.md)")
+      ->required();
+  simulate
+      ->add_option("-o,--output",
+                   sim.output_path,
+                   "Output rawlog path (external images go to <stem>_Images/)")
+      ->required();
+  auto* frames_opt = simulate->add_option(
+      "--frames", sim_frames, "Number of frames (default: the world's 'frames')");
+  auto* seed_opt = simulate->add_option(
+      "--seed", sim_seed, "Seed of all random draws (default: the world's 'seed')");
   double sim_noise_scale = 1.0;
-  auto* noise_opt = simulate->add_option("--odometry-noise-scale", sim_noise_scale, "Multiply the world's odometry noise (0 = exact odometry, 3 = three times the default)");
-  simulate->add_option("--preview-dir", sim.preview_dir, "Folder for contact sheet, trajectory CSV and timing (default <stem>_preview)");
+  auto* noise_opt = simulate->add_option(
+      "--odometry-noise-scale",
+      sim_noise_scale,
+      "Multiply the world's odometry noise (0 = exact odometry, 3 = three times the default)");
+  simulate->add_option(
+      "--preview-dir",
+      sim.preview_dir,
+      "Folder for contact sheet, trajectory CSV and timing (default <stem>_preview)");
   simulate->add_flag("-q,--quiet", sim.quiet, "No progress bar");
 
   twocam::tools::StereoEvalArgs se;
   double se_gt_invalid = 0.0;
-  auto* stereo_eval = app.add_subcommand("stereo-eval", "Evaluate 1-D SAD stereo on one rectified pair against ground-truth disparities");
+  auto* stereo_eval = app.add_subcommand(
+      "stereo-eval",
+      "Evaluate 1-D SAD stereo on one rectified pair against ground-truth disparities");
   stereo_eval->add_option("--left", se.left_path, "Left image (8-bit grey or colour)")->required();
   stereo_eval->add_option("--right", se.right_path, "Right image")->required();
-  stereo_eval->add_option("--gt", se.gt_path, "Ground-truth disparity of the left view: 8/16-bit PNG/PGM (value / scale) or PFM")->required();
-  stereo_eval->add_option("--gt-scale", se.gt_scale, "Disparity = stored value / scale (PFM: 1)")->required();
-  auto* gt_invalid_opt = stereo_eval->add_option("--gt-invalid", se_gt_invalid, "Stored value meaning 'no ground truth' (default 0 for integer files; PFM: inf)");
+  stereo_eval
+      ->add_option(
+          "--gt",
+          se.gt_path,
+          "Ground-truth disparity of the left view: 8/16-bit PNG/PGM (value / scale) or PFM")
+      ->required();
+  stereo_eval->add_option("--gt-scale", se.gt_scale, "Disparity = stored value / scale (PFM: 1)")
+      ->required();
+  auto* gt_invalid_opt = stereo_eval->add_option(
+      "--gt-invalid",
+      se_gt_invalid,
+      "Stored value meaning 'no ground truth' (default 0 for integer files; PFM: inf)");
   stereo_eval->add_option("--mask", se.mask_path, "Evaluate only pixels whose mask value is 255");
   stereo_eval->add_option("--border", se.border_px, "Ignore this many pixels at every image edge");
   stereo_eval->add_option("--max-disp", se.max_disp, "Largest disparity searched [px]")->required();
-  stereo_eval->add_option("--mode", se.mode, "dense (every pixel, with post-processing) or salient (Harris corners, several hypotheses)")->required();
+  stereo_eval
+      ->add_option("--mode",
+                   se.mode,
+                   "dense (every pixel, with post-processing) or salient (Harris corners, several "
+                   "hypotheses)")
+      ->required();
   stereo_eval->add_option("-o,--output", se.output_json, "Write the metrics as JSON");
-  stereo_eval->add_option("--image", se.output_image, "Write a picture of disparities and errors (PNG)");
-  stereo_eval->add_option("--window", se.window_px, "Window width [px] (default: dense 7, salient 11)");
-  stereo_eval->add_flag("--exclude-occluded", se.exclude_occluded, "Evaluate only pixels the right camera sees (occlusion derived from the ground truth; for sets without nonocc masks)");
-  stereo_eval->add_flag("--birchfield-tomasi", se.birchfield_tomasi, "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
-  stereo_eval->add_option("--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
+  stereo_eval->add_option(
+      "--image", se.output_image, "Write a picture of disparities and errors (PNG)");
+  stereo_eval->add_option(
+      "--window", se.window_px, "Window width [px] (default: dense 7, salient 11)");
+  stereo_eval->add_flag("--exclude-occluded",
+                        se.exclude_occluded,
+                        "Evaluate only pixels the right camera sees (occlusion derived from the "
+                        "ground truth; for sets without nonocc masks)");
+  stereo_eval->add_flag("--birchfield-tomasi",
+                        se.birchfield_tomasi,
+                        "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
+  stereo_eval->add_option(
+      "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
 
   twocam::tools::RunArgs run;
   int run_frames = 0, run_sample = 0;
   std::string run_policy, run_source, run_config, run_world;
-  auto* run_cmd = app.add_subcommand("run", "Run frontend, landmark database and occupancy map over a log; write metrics, landmarks, trajectories, map.bt and pictures");
-  run_cmd->add_option("log", run.log_path, "Input rawlog (TwoCam's own or any MRPT rawlog with stereo images; odometry when present)")->required();
-  run_cmd->add_option("-o,--output", run.output_dir, "Output folder (created; files in it are replaced only by complete new ones)")->required();
-  auto* run_config_opt = run_cmd->add_option("--config", run_config, "YAML config (docs/config.md; defaults: configs/default.yaml)");
-  auto* run_policy_opt = run_cmd->add_option("--policy", run_policy, "Landmark confidence policy, overrides the config: consistency (default), wta-lrc, seen-count, culling, inlier-ratio");
-  auto* run_source_opt = run_cmd->add_option("--source", run_source, "Hypothesis source, overrides the config: sad (default) or pairing (Paper A)");
-  auto* run_world_opt = run_cmd->add_option("--world", run_world, "World file for the map evaluation (default: <log stem>.world.yaml beside the log, written by simulate)");
-  auto* run_frames_opt = run_cmd->add_option("--frames", run_frames, "Process at most this many frames");
-  auto* run_sample_opt = run_cmd->add_option("--sample-frame", run_sample, "Frame drawn in sample_frame/ (default: the middle of the log)");
-  run_cmd->add_flag("--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
+  auto* run_cmd =
+      app.add_subcommand("run",
+                         "Run frontend, landmark database and occupancy map over a log; write "
+                         "metrics, landmarks, trajectories, map.bt and pictures");
+  run_cmd
+      ->add_option("log",
+                   run.log_path,
+                   "Input rawlog (TwoCam's own or any MRPT rawlog with stereo images; odometry "
+                   "when present)")
+      ->required();
+  run_cmd
+      ->add_option("-o,--output",
+                   run.output_dir,
+                   "Output folder (created; files in it are replaced only by complete new ones)")
+      ->required();
+  auto* run_config_opt = run_cmd->add_option(
+      "--config", run_config, "YAML config (docs/config.md; defaults: configs/default.yaml)");
+  auto* run_policy_opt =
+      run_cmd->add_option("--policy",
+                          run_policy,
+                          "Landmark confidence policy, overrides the config: consistency "
+                          "(default), wta-lrc, seen-count, culling, inlier-ratio");
+  auto* run_source_opt = run_cmd->add_option(
+      "--source",
+      run_source,
+      "Hypothesis source, overrides the config: sad (default) or pairing (Paper A)");
+  auto* run_world_opt =
+      run_cmd->add_option("--world",
+                          run_world,
+                          "World file for the map evaluation (default: <log stem>.world.yaml "
+                          "beside the log, written by simulate)");
+  auto* run_frames_opt =
+      run_cmd->add_option("--frames", run_frames, "Process at most this many frames");
+  auto* run_sample_opt =
+      run_cmd->add_option("--sample-frame",
+                          run_sample,
+                          "Frame drawn in sample_frame/ (default: the middle of the log)");
+  run_cmd->add_flag(
+      "--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
   run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");
 
   twocam::tools::ImportEurocArgs ie;
   int ie_max_frames = 0;
-  auto* import_euroc = app.add_subcommand("import-euroc", "Rectify a EuRoC MAV stereo sequence (mav0/cam0, cam1) into a TwoCam rawlog (no odometry)");
-  import_euroc->add_option("dir", ie.input_dir, "EuRoC sequence folder containing mav0/ (or mav0 itself)")->required();
-  import_euroc->add_option("-o,--output", ie.output_path, "Output rawlog path (rectified images go to <stem>_Images/)")->required();
-  auto* ie_max_frames_opt = import_euroc->add_option("--max-frames", ie_max_frames, "Import at most this many stereo pairs (the first ones)");
+  auto* import_euroc = app.add_subcommand(
+      "import-euroc",
+      "Rectify a EuRoC MAV stereo sequence (mav0/cam0, cam1) into a TwoCam rawlog (no odometry)");
+  import_euroc
+      ->add_option("dir", ie.input_dir, "EuRoC sequence folder containing mav0/ (or mav0 itself)")
+      ->required();
+  import_euroc
+      ->add_option("-o,--output",
+                   ie.output_path,
+                   "Output rawlog path (rectified images go to <stem>_Images/)")
+      ->required();
+  auto* ie_max_frames_opt = import_euroc->add_option(
+      "--max-frames", ie_max_frames, "Import at most this many stereo pairs (the first ones)");
   import_euroc->add_flag("-q,--quiet", ie.quiet, "No progress bar");
 
   try {

@@ -2,9 +2,8 @@
 /// Timestamped value structs exchanged between modules. The simulator and the log readers
 /// emit exactly these, so the pipeline cannot tell a simulated run from a recorded one.
 
-#include <cstdint>
-
 #include <Eigen/Geometry>
+#include <cstdint>
 
 #include "common/image.h"
 

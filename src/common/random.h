@@ -23,7 +23,8 @@ inline uint64_t mixSeed(uint64_t x) {
   return x ^ (x >> 31);
 }
 
-/// The generator of one stream for a given seed; sub_id separates e.g. textures of different shapes.
+/// The generator of one stream for a given seed; sub_id separates e.g. textures of different
+/// shapes.
 inline std::mt19937_64 makeRng(uint64_t seed, RandomStream stream, uint64_t sub_id = 0) {
   return std::mt19937_64(mixSeed(mixSeed(seed ^ mixSeed(static_cast<uint64_t>(stream))) + sub_id));
 }

@@ -19,7 +19,8 @@ Status StereoRig::validate() const {
     os << "rig focal lengths fx = " << fx_px << ", fy = " << fy_px << " px; must be > 0";
     return fail(os.str());
   }
-  if (!std::isfinite(cx_px) || !std::isfinite(cy_px)) return fail("rig principal point is not finite");
+  if (!std::isfinite(cx_px) || !std::isfinite(cy_px))
+    return fail("rig principal point is not finite");
   if (!(baseline_m > 0.0) || !std::isfinite(baseline_m)) {
     os << "rig baseline_m = " << baseline_m << "; must be > 0";
     return fail(os.str());
@@ -45,8 +46,8 @@ std::optional<Eigen::Vector3d> triangulateRectified(const StereoRig& rig,
                                                     double disparity_px) {
   if (!(disparity_px > 0.0)) return std::nullopt;
   const double z = rig.fx_px * rig.baseline_m / disparity_px;
-  return Eigen::Vector3d((uv_left.x() - rig.cx_px) * z / rig.fx_px,
-                         (uv_left.y() - rig.cy_px) * z / rig.fy_px, z);
+  return Eigen::Vector3d(
+      (uv_left.x() - rig.cx_px) * z / rig.fx_px, (uv_left.y() - rig.cy_px) * z / rig.fy_px, z);
 }
 
 Eigen::Matrix3d opticalRotationFromYawPitch(double yaw_rad, double pitch_rad) {

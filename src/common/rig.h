@@ -4,10 +4,9 @@
 /// pixel (0, 0) is the centre of the top-left pixel; the right camera sits at +baseline
 /// along the left camera's x axis; disparity d = u_left - u_right, depth Z = fx * B / d.
 
-#include <optional>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <optional>
 
 #include "common/status.h"
 

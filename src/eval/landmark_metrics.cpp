@@ -18,13 +18,15 @@ constexpr double kCalibrationThresholds[] = {0.0, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99
 
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1) + 0.5)));
+  const size_t k = std::min(
+      v.size() - 1, static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1) + 0.5)));
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return v[k];
 }
 
 double percent(int64_t num, int64_t den) {
-  return den > 0 ? 100.0 * static_cast<double>(num) / static_cast<double>(den) : std::numeric_limits<double>::quiet_NaN();
+  return den > 0 ? 100.0 * static_cast<double>(num) / static_cast<double>(den)
+                 : std::numeric_limits<double>::quiet_NaN();
 }
 
 std::string num(double v) {
@@ -40,7 +42,8 @@ int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double r
   // Greedy in the given order: a point within radius_m of a kept representative joins it. A hash
   // grid of cell radius_m finds the candidates in the 27 neighbouring cells.
   const auto cell = [&](const Eigen::Vector3f& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius_m)), static_cast<int>(std::floor(p.y() / radius_m)),
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius_m)),
+                           static_cast<int>(std::floor(p.y() / radius_m)),
                            static_cast<int>(std::floor(p.z() / radius_m)));
   };
   const auto key = [](const Eigen::Vector3i& c) {
@@ -74,9 +77,12 @@ int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double r
 
 double patchStdDevGrey(const ImageU8& image, double u_px, double v_px, int radius) {
   const long u0 = std::lround(u_px), v0 = std::lround(v_px);
-  if (!(u0 >= 0 && v0 >= 0 && u0 < image.width && v0 < image.height)) return std::numeric_limits<double>::quiet_NaN();
-  const int ua = static_cast<int>(std::max<long>(0, u0 - radius)), ub = static_cast<int>(std::min<long>(image.width - 1, u0 + radius));
-  const int va = static_cast<int>(std::max<long>(0, v0 - radius)), vb = static_cast<int>(std::min<long>(image.height - 1, v0 + radius));
+  if (!(u0 >= 0 && v0 >= 0 && u0 < image.width && v0 < image.height))
+    return std::numeric_limits<double>::quiet_NaN();
+  const int ua = static_cast<int>(std::max<long>(0, u0 - radius)),
+            ub = static_cast<int>(std::min<long>(image.width - 1, u0 + radius));
+  const int va = static_cast<int>(std::max<long>(0, v0 - radius)),
+            vb = static_cast<int>(std::min<long>(image.height - 1, v0 + radius));
   double sum = 0.0, sum2 = 0.0;
   for (int v = va; v <= vb; ++v) {
     for (int u = ua; u <= ub; ++u) {
@@ -98,7 +104,8 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
                                    const Eigen::Isometry3d& T_w_b_true) {
   if (Status s = disparityFromDepth(gt_depth, rig_, &gt_); !s) return s;
   const auto gt_at = [&](int u, int v, float* d, float* z) {
-    if (u < 0 || v < 0 || u >= gt_.d_px.width || v >= gt_.d_px.height || !gt_.valid(u, v)) return false;
+    if (u < 0 || v < 0 || u >= gt_.d_px.width || v >= gt_.d_px.height || !gt_.valid(u, v))
+      return false;
     *d = gt_.d_px(u, v);
     *z = gt_depth(u, v);
     return true;
@@ -125,7 +132,9 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
     for (int dv = -1; dv <= 1; ++dv) {
       for (int du = -1; du <= 1; ++du) {
         const int uu = u0 + du, vv = v0 + dv;
-        const float z = (uu >= 0 && vv >= 0 && uu < gt_depth.width && vv < gt_depth.height) ? gt_depth(uu, vv) : 0.0f;
+        const float z = (uu >= 0 && vv >= 0 && uu < gt_depth.width && vv < gt_depth.height)
+                            ? gt_depth(uu, vv)
+                            : 0.0f;
         if (!(std::isfinite(z) && z > 0.0f)) {
           z_min = std::numeric_limits<float>::quiet_NaN();
           break;
@@ -136,13 +145,18 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
       if (std::isnan(z_min)) break;
     }
     const double fx_b = rig_.fx_px * rig_.baseline_m;
-    t.d_near = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(fx_b / z_min);
-    t.d_far = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(fx_b / z_max);
+    t.d_near = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN()
+                                 : static_cast<float>(fx_b / z_min);
+    t.d_far = std::isnan(z_min) ? std::numeric_limits<float>::quiet_NaN()
+                                : static_cast<float>(fx_b / z_max);
     if (t.valid) {
-      const Eigen::Vector3d ray((l.anchor.u_px - rig_.cx_px) / rig_.fx_px, (l.anchor.v_px - rig_.cy_px) / rig_.fy_px, 1.0);
+      const Eigen::Vector3d ray((l.anchor.u_px - rig_.cx_px) / rig_.fx_px,
+                                (l.anchor.v_px - rig_.cy_px) / rig_.fy_px,
+                                1.0);
       t.p_true_w = (T_w_b_true * rig_.T_b_cl * (ray * static_cast<double>(t.z_gt))).cast<float>();
     }
-    t.texture_grey = static_cast<float>(patchStdDevGrey(left, l.anchor.u_px, l.anchor.v_px, kTexturePatchRadius));
+    t.texture_grey = static_cast<float>(
+        patchStdDevGrey(left, l.anchor.u_px, l.anchor.v_px, kTexturePatchRadius));
     anchors_[l.id] = t;
   }
   return Status::ok();
@@ -151,7 +165,8 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
 int LandmarkEvaluator::verdict(const landmarks::Landmark& l) const {
   const auto it = anchors_.find(l.id);
   if (it == anchors_.end() || !it->second.valid) return -1;
-  const Eigen::Isometry3d T_cl_w = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
+  const Eigen::Isometry3d T_cl_w =
+      landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
   Eigen::Vector3d uvd;
   if (!landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd)) return 0;
   const double reproj = std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px);
@@ -182,8 +197,10 @@ double LandmarkEvaluator::anchorTextureGrey(const landmarks::Landmark& l) const 
 double LandmarkEvaluator::errorM(const landmarks::Landmark& l) const {
   const auto it = anchors_.find(l.id);
   if (it == anchors_.end() || !it->second.valid) return std::numeric_limits<double>::quiet_NaN();
-  const Eigen::Vector3d p_cl = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse() * l.p_w;
-  const Eigen::Vector3d ray((l.anchor.u_px - rig_.cx_px) / rig_.fx_px, (l.anchor.v_px - rig_.cy_px) / rig_.fy_px, 1.0);
+  const Eigen::Vector3d p_cl =
+      landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse() * l.p_w;
+  const Eigen::Vector3d ray(
+      (l.anchor.u_px - rig_.cx_px) / rig_.fx_px, (l.anchor.v_px - rig_.cy_px) / rig_.fy_px, 1.0);
   return (p_cl - ray * static_cast<double>(it->second.z_gt)).norm();
 }
 
@@ -192,7 +209,8 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
   m.hypotheses_total = hyp_total_;
   m.hypotheses_judged = hyp_judged_;
   m.hypotheses_true_fraction =
-      hyp_judged_ > 0 ? static_cast<double>(hyp_true_) / static_cast<double>(hyp_judged_) : std::numeric_limits<double>::quiet_NaN();
+      hyp_judged_ > 0 ? static_cast<double>(hyp_true_) / static_cast<double>(hyp_judged_)
+                      : std::numeric_limits<double>::quiet_NaN();
   m.frontend = frontend_.metrics();
   std::vector<double> errors;
   std::vector<double> frames_to_confirm;
@@ -231,10 +249,12 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
     if (v < 0) {
       ++m.unjudged_confirmed;
       const auto it = anchors_.find(l.id);
-      const Eigen::Isometry3d T_cl_w = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
+      const Eigen::Isometry3d T_cl_w =
+          landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
       Eigen::Vector3d uvd;
-      const bool projects = it != anchors_.end() && landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd) &&
-                            std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px) <= kTruthTolPx;
+      const bool projects =
+          it != anchors_.end() && landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd) &&
+          std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px) <= kTruthTolPx;
       if (projects && std::abs(uvd.z() - it->second.d_near) <= kTruthTolPx) {
         ++m.unjudged_near_side;
       } else if (projects && std::abs(uvd.z() - it->second.d_far) <= kTruthTolPx) {
@@ -264,13 +284,16 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
   const std::string i1 = indent + "  ";
   const std::string i2 = indent + "    ";
   s << "{\n";
-  s << i1 << "\"hypotheses\": {\"total\": " << m.hypotheses_total << ", \"judged\": " << m.hypotheses_judged
+  s << i1 << "\"hypotheses\": {\"total\": " << m.hypotheses_total
+    << ", \"judged\": " << m.hypotheses_judged
     << ", \"true_fraction\": " << num(m.hypotheses_true_fraction) << "},\n";
   const StereoMetrics& f = m.frontend;
-  s << i1 << "\"frontend\": {\"recall_at_k\": " << num(f.recall_at_k) << ", \"recall_at_1\": " << num(f.recall_at_1)
-    << ", \"bad1\": " << num(f.bad1) << ", \"bad2\": " << num(f.bad2) << ", \"avgerr\": " << num(f.avgerr)
-    << ", \"density\": " << num(f.density) << ", \"k\": " << f.k << ", \"mean_hypotheses\": " << num(f.mean_hypotheses)
-    << ", \"points\": " << f.points << ", \"evaluated\": " << f.evaluated
+  s << i1 << "\"frontend\": {\"recall_at_k\": " << num(f.recall_at_k)
+    << ", \"recall_at_1\": " << num(f.recall_at_1) << ", \"bad1\": " << num(f.bad1)
+    << ", \"bad2\": " << num(f.bad2) << ", \"avgerr\": " << num(f.avgerr)
+    << ", \"density\": " << num(f.density) << ", \"k\": " << f.k
+    << ", \"mean_hypotheses\": " << num(f.mean_hypotheses) << ", \"points\": " << f.points
+    << ", \"evaluated\": " << f.evaluated
     << ", \"one_answer_fraction\": " << num(f.one_answer_fraction)
     << ", \"one_answer_precision\": " << num(f.one_answer_precision) << "},\n";
   s << i1 << "\"landmarks\": {\n";
@@ -291,16 +314,17 @@ std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
   s << i1 << "\"calibration\": [";
   for (size_t k = 0; k < m.calibration.size(); ++k) {
     const CalibrationRow& r = m.calibration[k];
-    s << (k ? ", " : "") << "{\"threshold\": " << num(r.threshold) << ", \"landmarks\": " << r.landmarks
-      << ", \"correct\": " << r.correct << ", \"precision\": " << num(r.precision) << "}";
+    s << (k ? ", " : "") << "{\"threshold\": " << num(r.threshold)
+      << ", \"landmarks\": " << r.landmarks << ", \"correct\": " << r.correct
+      << ", \"precision\": " << num(r.precision) << "}";
   }
   s << "],\n";
   s << i1 << "\"by_texture\": [";
   for (size_t k = 0; k < m.by_texture.size(); ++k) {
     const TextureRow& r = m.by_texture[k];
     s << (k ? ", " : "") << "{\"class\": \"" << r.name << "\", \"min_grey\": " << num(r.min_grey)
-      << ", \"max_grey\": " << num(r.max_grey) << ", \"confirmed\": " << r.confirmed << ", \"correct\": " << r.correct
-      << ", \"unjudged\": " << r.unjudged << "}";
+      << ", \"max_grey\": " << num(r.max_grey) << ", \"confirmed\": " << r.confirmed
+      << ", \"correct\": " << r.correct << ", \"unjudged\": " << r.unjudged << "}";
   }
   s << "]\n" << indent << "}";
   return s.str();

@@ -53,7 +53,7 @@ constexpr int kTexturePatchRadius = 3;
 struct LandmarkMetrics {
   // hypotheses.*
   int64_t hypotheses_total = 0;
-  int64_t hypotheses_judged = 0;  ///< with defined ground truth at their pixel
+  int64_t hypotheses_judged = 0;          ///< with defined ground truth at their pixel
   double hypotheses_true_fraction = 0.0;  ///< true / judged [0, 1]
   // frontend.*: the salient-mode stereo metrics (stereo_metrics.h, METRICS.md) summed over
   // every frame's points with ground truth: recall_at_k, recall_at_1, and the single-best

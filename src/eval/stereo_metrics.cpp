@@ -230,7 +230,8 @@ Status tallySalient(const StereoHypotheses& hyps,
     bool single = true;
     for (uint64_t j = p.first_hypothesis; j < end; ++j) {
       const float d = hyps.hypotheses[j].d_px;
-      single = single && std::isfinite(d) && std::abs(static_cast<double>(d) - best->d_px) <= options.recall_tol_px;
+      single = single && std::isfinite(d) &&
+               std::abs(static_cast<double>(d) - best->d_px) <= options.recall_tol_px;
     }
     if (single) {
       ++one_answer;

@@ -118,18 +118,19 @@ Status evaluateSalient(const StereoHypotheses& hyps,
 /// the summed counts (every evaluated point weighs the same), not a mean of per-frame
 /// percentages. evaluateSalient() is tallySalient() on an empty tally, then metrics().
 struct SalientTally {
-  int k = 0;                 ///< options.k of the tallies (all must share it)
-  int64_t points = 0;        ///< salient points offered
-  int64_t evaluated = 0;     ///< points evaluated (denominator of the percentages)
-  int64_t estimated = 0;     ///< evaluated points with a single-best estimate
-  int64_t bad1 = 0;          ///< estimated points off by more than bad1_px
-  int64_t bad2 = 0;          ///< estimated points off by more than bad2_px
-  int64_t recalled_k = 0;    ///< evaluated points with a true hypothesis among rank < k
-  int64_t recalled_1 = 0;    ///< evaluated points whose best hypothesis is true
-  int64_t hypotheses = 0;    ///< hypotheses of the evaluated points
-  int64_t one_answer = 0;    ///< evaluated points whose hypotheses all lie within recall_tol_px of the best
+  int k = 0;               ///< options.k of the tallies (all must share it)
+  int64_t points = 0;      ///< salient points offered
+  int64_t evaluated = 0;   ///< points evaluated (denominator of the percentages)
+  int64_t estimated = 0;   ///< evaluated points with a single-best estimate
+  int64_t bad1 = 0;        ///< estimated points off by more than bad1_px
+  int64_t bad2 = 0;        ///< estimated points off by more than bad2_px
+  int64_t recalled_k = 0;  ///< evaluated points with a true hypothesis among rank < k
+  int64_t recalled_1 = 0;  ///< evaluated points whose best hypothesis is true
+  int64_t hypotheses = 0;  ///< hypotheses of the evaluated points
+  int64_t one_answer =
+      0;  ///< evaluated points whose hypotheses all lie within recall_tol_px of the best
   int64_t one_answer_true = 0;  ///< of those, points whose best hypothesis is true
-  double abs_err_sum = 0.0;  ///< sum of |d - d_gt| over estimated points [px]
+  double abs_err_sum = 0.0;     ///< sum of |d - d_gt| over estimated points [px]
 
   /// The metrics of these counts (ms and s_per_mp left 0).
   [[nodiscard]] StereoMetrics metrics() const;
@@ -150,8 +151,8 @@ void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics);
 /// The metrics as a JSON object with METRICS.md's keys first, in this fixed order:
 /// bad1, bad2, avgerr, density, recall_at_k, points, ms, s_per_mp, then k, recall_at_1,
 /// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision. Doubles are
-/// written with 6 decimals (locale independent), NaN and infinities as null. `indent` prefixes every line after the first so
-/// the object can be nested in a larger file; no trailing newline.
+/// written with 6 decimals (locale independent), NaN and infinities as null. `indent` prefixes
+/// every line after the first so the object can be nested in a larger file; no trailing newline.
 std::string toJson(const StereoMetrics& metrics, const std::string& indent = "");
 
 /// Writes toJson(metrics) plus a newline to `path`. Errors name the path.

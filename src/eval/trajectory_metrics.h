@@ -12,6 +12,8 @@ namespace twocam::eval {
 
 /// Root mean square of the position difference [m] between poses with equal time stamps.
 /// Errors: different lengths, a time stamp that differs at the same index, empty tracks.
-Status ateRmseM(const std::vector<io::TimedPose>& estimate, const std::vector<io::TimedPose>& truth, double* rmse_m);
+Status ateRmseM(const std::vector<io::TimedPose>& estimate,
+                const std::vector<io::TimedPose>& truth,
+                double* rmse_m);
 
 }  // namespace twocam::eval

@@ -1,7 +1,6 @@
 #include "frontend/cv_interop.h"
 
 #include <filesystem>
-
 #include <opencv2/imgcodecs.hpp>
 
 namespace twocam::frontend {

@@ -3,9 +3,8 @@
 /// tools and the OpenCV-based parts of the frontend (rectification). The hot path never
 /// needs them: it works on ImageU8 directly.
 
-#include <string>
-
 #include <opencv2/core/mat.hpp>
+#include <string>
 
 #include "common/image.h"
 #include "common/status.h"

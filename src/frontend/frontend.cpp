@@ -40,11 +40,13 @@ Frontend::Frontend(const FrontendOptions& options)
 
 Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
   TWOCAM_CHECK(out != nullptr);
-  if (frame.left.empty() || frame.right.empty()) return Status::error("stereo frame has an empty image");
+  if (frame.left.empty() || frame.right.empty())
+    return Status::error("stereo frame has an empty image");
   if (frame.left.width != frame.right.width || frame.left.height != frame.right.height) {
-    return Status::error("left and right images differ in size (" + std::to_string(frame.left.width) + "x" +
-                         std::to_string(frame.left.height) + " vs " + std::to_string(frame.right.width) + "x" +
-                         std::to_string(frame.right.height) + ")");
+    return Status::error(
+        "left and right images differ in size (" + std::to_string(frame.left.width) + "x" +
+        std::to_string(frame.left.height) + " vs " + std::to_string(frame.right.width) + "x" +
+        std::to_string(frame.right.height) + ")");
   }
   const auto t0 = std::chrono::steady_clock::now();
   if (Status s = left_detector_.detect(frame.left, &left_corners_); !s) return s;
@@ -53,9 +55,10 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
   }
   timing_.harris_ms = msSince(t0);
   const auto t1 = std::chrono::steady_clock::now();
-  Status s = options_.source == HypothesisSource::kSad
-                 ? matchSalient(frame.left, frame.right, left_corners_, options_.sad, out)
-                 : pairCorners(frame.left, frame.right, left_corners_, right_corners_, options_.sad, out);
+  Status s =
+      options_.source == HypothesisSource::kSad
+          ? matchSalient(frame.left, frame.right, left_corners_, options_.sad, out)
+          : pairCorners(frame.left, frame.right, left_corners_, right_corners_, options_.sad, out);
   if (!s) return s;
   if (options_.sad.row_support) {
     if (Status r = measureRowSupport(frame.left, frame.right, options_.sad, out); !r) return r;
@@ -66,7 +69,9 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
   return Status::ok();
 }
 
-Status Frontend::measureAt(const StereoFrame& frame, const std::vector<Corner>& pixels, StereoHypotheses* out) const {
+Status Frontend::measureAt(const StereoFrame& frame,
+                           const std::vector<Corner>& pixels,
+                           StereoHypotheses* out) const {
   TWOCAM_CHECK(out != nullptr);
   // The right-to-left check is left out: its flag serves seeding, and re-measurement does not
   // seed. So are the shifted windows: a pixel placed by a prediction is not a corner on a

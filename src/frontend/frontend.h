@@ -53,10 +53,12 @@ class Frontend {
   /// The matcher (and row support, when on) at given left pixels of `frame`, as process() runs
   /// it on the detected corners but with the centred window only and without the right-to-left
   /// check (lr_consistent stays false): one SalientPoint per pixel whose window fits, in input
-  /// order. Always the SAD matcher, whatever options().source says (pairing needs a right corner). The
-  /// landmark database uses it to re-measure candidates whose corner was not detected
+  /// order. Always the SAD matcher, whatever options().source says (pairing needs a right corner).
+  /// The landmark database uses it to re-measure candidates whose corner was not detected
   /// (LandmarkOptions::probe_unseen). Errors as process(); out->t_ns = frame.t_ns.
-  Status measureAt(const StereoFrame& frame, const std::vector<Corner>& pixels, StereoHypotheses* out) const;
+  Status measureAt(const StereoFrame& frame,
+                   const std::vector<Corner>& pixels,
+                   StereoHypotheses* out) const;
 
   /// Left corners of the last frame (the salient points, before the matcher dropped any).
   [[nodiscard]] const std::vector<Corner>& corners() const { return left_corners_; }

@@ -126,9 +126,9 @@ inline void sse2PrefixGroup(const uint8_t* win,
       for (int c = 0; c < NC; ++c) {
         const __m128i s =
             _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip + i + 16 * c));  // NOLINT
-        const __m128i t =
-            kInterval ? _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip_hi + i + 16 * c))  // NOLINT
-                      : s;
+        const __m128i t = kInterval ? _mm_loadu_si128(reinterpret_cast<const __m128i*>(
+                                          strip_hi + i + 16 * c))  // NOLINT
+                                    : s;
         const __m128i ad = _mm_or_si128(_mm_subs_epu8(s, b), _mm_subs_epu8(b, t));
         acc[2 * c] = _mm_add_epi16(acc[2 * c], _mm_unpacklo_epi8(ad, zero));
         acc[2 * c + 1] = _mm_add_epi16(acc[2 * c + 1], _mm_unpackhi_epi8(ad, zero));
@@ -169,12 +169,12 @@ inline void sse2ZeroMeanGroup(const uint8_t* win,
         const __m128i hi =
             _mm_loadu_si128(reinterpret_cast<const __m128i*>(strip_hi + i + 16 * c));  // NOLINT
         // t = x - lo; lo - x = -t; x - hi; the largest, floored at 0.
-        t0 = _mm_max_epi16(_mm_max_epi16(_mm_sub_epi16(zero, t0),
-                                         _mm_sub_epi16(x0, _mm_unpacklo_epi8(hi, zero))),
-                           zero);
-        t1 = _mm_max_epi16(_mm_max_epi16(_mm_sub_epi16(zero, t1),
-                                         _mm_sub_epi16(x1, _mm_unpackhi_epi8(hi, zero))),
-                           zero);
+        t0 = _mm_max_epi16(
+            _mm_max_epi16(_mm_sub_epi16(zero, t0), _mm_sub_epi16(x0, _mm_unpacklo_epi8(hi, zero))),
+            zero);
+        t1 = _mm_max_epi16(
+            _mm_max_epi16(_mm_sub_epi16(zero, t1), _mm_sub_epi16(x1, _mm_unpackhi_epi8(hi, zero))),
+            zero);
       } else {
         t0 = _mm_max_epi16(t0, _mm_sub_epi16(zero, t0));
         t1 = _mm_max_epi16(t1, _mm_sub_epi16(zero, t1));
@@ -452,8 +452,7 @@ void windowOffsets(
 /// Columns [base, base + need) of `image` row `row` for a kernel: the image's own pixels, or a
 /// zero-padded copy when the padded reads would run past the end of the buffer. The caller
 /// guarantees that the columns the valid lanes read exist.
-const uint8_t* stripFor(
-    const ImageU8& image, int row, int base, size_t need, uint8_t* copy) {
+const uint8_t* stripFor(const ImageU8& image, int row, int base, size_t need, uint8_t* copy) {
   const size_t start = static_cast<size_t>(row) * static_cast<size_t>(image.width) + base;
   const uint8_t* strip = image.data.data() + start;
   if (start + need <= image.data.size()) return strip;
@@ -727,9 +726,9 @@ void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi) {
     int x = 1;
 #if defined(__SSE2__)
     for (; x + 17 <= width; x += 16) {
-      const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x));       // NOLINT
-      const __m128i p = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x - 1));   // NOLINT
-      const __m128i n = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x + 1));   // NOLINT
+      const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x));      // NOLINT
+      const __m128i p = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x - 1));  // NOLINT
+      const __m128i n = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in + x + 1));  // NOLINT
       const __m128i hp = _mm_avg_epu8(p, c);
       const __m128i hn = _mm_avg_epu8(c, n);
       _mm_storeu_si128(reinterpret_cast<__m128i*>(l + x),  // NOLINT
@@ -837,7 +836,8 @@ Status SalientSadOptions::validate() const {
     return fail("cost_ratio = " + std::to_string(cost_ratio) + "; must be finite and >= 1");
   }
   if (!std::isfinite(complete_cost_ratio) || complete_cost_ratio < cost_ratio) {
-    return fail("complete_cost_ratio = " + std::to_string(complete_cost_ratio) + "; must be finite and >= cost_ratio");
+    return fail("complete_cost_ratio = " + std::to_string(complete_cost_ratio) +
+                "; must be finite and >= cost_ratio");
   }
   if (min_separation_px < 1) {
     return fail("min_separation_px = " + std::to_string(min_separation_px) + "; must be >= 1");
@@ -941,11 +941,11 @@ Status matchSalient(const ImageU8& left,
         const int span = 4 * h + 1;
         const auto need = static_cast<size_t>(internal::paddedLength(n, kernel) + span - 1);
         const int base = u - 2 * h - d_max;
-        const uint8_t* strip = stripFor(
-            forward.lo != nullptr ? *forward.lo : right, v + r, base, need, scratch.strip);
-        const uint8_t* strip_hi =
-            forward.hi == nullptr ? nullptr
-                                  : stripFor(*forward.hi, v + r, base, need, scratch.strip_hi);
+        const uint8_t* strip =
+            stripFor(forward.lo != nullptr ? *forward.lo : right, v + r, base, need, scratch.strip);
+        const uint8_t* strip_hi = forward.hi == nullptr
+                                      ? nullptr
+                                      : stripFor(*forward.hi, v + r, base, need, scratch.strip_hi);
         Curve* centre = &curves[num_curves];
         Curve* ends_at_u = &curves[num_curves + 1];
         Curve* starts_at_u = &curves[num_curves + 2];
@@ -1054,7 +1054,8 @@ Status matchSalient(const ImageU8& left,
       // it, and cost up to complete_cost_ratio x the best (taken as at least 1 grey level per
       // pixel): a local minimum that cheap where the list's period continues (2 d_i - d_j,
       // within 1 px) and not in the list leaves it incomplete.
-      const double complete_limit = static_cast<double>(std::max(best, w)) * options.complete_cost_ratio;
+      const double complete_limit =
+          static_cast<double>(std::max(best, w)) * options.complete_cost_ratio;
       const int limit = static_cast<int>(std::min(complete_limit, 1e9));
       if (gate < complete_limit) dropped = true;  // max_cost_per_px could hide it
       for (size_t i = 0; i < num_chosen && !dropped; ++i) {
@@ -1062,7 +1063,8 @@ Status matchSalient(const ImageU8& left,
           const int next = 2 * chosen[i].d_px - chosen[j].d_px;
           if (i == j || next + 1 < d_min || next - 1 > d_max) continue;
           bool listed = false;
-          for (size_t k = 0; k < num_chosen; ++k) listed = listed || std::abs(chosen[k].d_px - next) <= 1;
+          for (size_t k = 0; k < num_chosen; ++k)
+            listed = listed || std::abs(chosen[k].d_px - next) <= 1;
           if (listed) continue;
           for (int k = 0; k < num_curves && !dropped; ++k) {
             const Curve& curve = curves[k];
@@ -1142,18 +1144,41 @@ void shortSadCurves(const uint8_t* win_a,
 #if defined(__SSE2__)
   if (wide_loads && w <= 16) {
     // kOnes[16 - w, 32 - w): w bytes 0xFF, then zeros, so only the window's w bytes count.
-    alignas(16) static constexpr uint8_t kOnes[32] = {
-        0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
-    const __m128i mask = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kOnes + 16 - w));  // NOLINT
-    const __m128i la = _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(win_a)), mask);  // NOLINT
-    const __m128i lb = _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(win_b)), mask);  // NOLINT
+    alignas(16) static constexpr uint8_t kOnes[32] = {0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF,
+                                                      0xFF};
+    const __m128i mask =
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(kOnes + 16 - w));  // NOLINT
+    const __m128i la =
+        _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(win_a)), mask);  // NOLINT
+    const __m128i lb =
+        _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(win_b)), mask);  // NOLINT
     for (int t = 0; t < n; ++t) {
-      const __m128i sa = _mm_sad_epu8(
-          la, _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ra + t)), mask));  // NOLINT
-      const __m128i sb = _mm_sad_epu8(
-          lb, _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(rb + t)), mask));  // NOLINT
-      cost_a[t] = static_cast<uint16_t>(_mm_cvtsi128_si32(_mm_add_epi32(sa, _mm_srli_si128(sa, 8))));
-      cost_b[t] = static_cast<uint16_t>(_mm_cvtsi128_si32(_mm_add_epi32(sb, _mm_srli_si128(sb, 8))));
+      const __m128i sa =
+          _mm_sad_epu8(la,
+                       _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ra + t)),
+                                     mask));  // NOLINT
+      const __m128i sb =
+          _mm_sad_epu8(lb,
+                       _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(rb + t)),
+                                     mask));  // NOLINT
+      cost_a[t] =
+          static_cast<uint16_t>(_mm_cvtsi128_si32(_mm_add_epi32(sa, _mm_srli_si128(sa, 8))));
+      cost_b[t] =
+          static_cast<uint16_t>(_mm_cvtsi128_si32(_mm_add_epi32(sb, _mm_srli_si128(sb, 8))));
     }
     return;
   }
@@ -1186,7 +1211,8 @@ __attribute__((target("avx2"))) inline __m128i sad8(const uint8_t* win, const ui
   if (blocks > 3) acc = _mm_add_epi16(acc, sadBlock<3>(l, rp));
   for (int i = w; i < 4 * blocks; ++i) {
     // Window pixel i is not part of the window: remove |R[t + i] - L[i]| from every lane.
-    const __m128i r = _mm_cvtepu8_epi16(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(rp + i)));  // NOLINT
+    const __m128i r =
+        _mm_cvtepu8_epi16(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(rp + i)));  // NOLINT
     acc = _mm_sub_epi16(acc, _mm_abs_epi16(_mm_sub_epi16(r, _mm_set1_epi16(win[i]))));
   }
   return acc;
@@ -1196,19 +1222,17 @@ __attribute__((target("avx2"))) inline __m128i sad8(const uint8_t* win, const ui
 __attribute__((target("avx2"))) inline int cheapestLane(__m128i costs, int t_lo, int t_hi) {
   alignas(16) static constexpr uint16_t kLane[8] = {0, 1, 2, 3, 4, 5, 6, 7};
   const __m128i lane = _mm_load_si128(reinterpret_cast<const __m128i*>(kLane));  // NOLINT
-  const __m128i outside = _mm_or_si128(_mm_cmplt_epi16(lane, _mm_set1_epi16(static_cast<int16_t>(t_lo))),
-                                       _mm_cmpgt_epi16(lane, _mm_set1_epi16(static_cast<int16_t>(t_hi))));
+  const __m128i outside =
+      _mm_or_si128(_mm_cmplt_epi16(lane, _mm_set1_epi16(static_cast<int16_t>(t_lo))),
+                   _mm_cmpgt_epi16(lane, _mm_set1_epi16(static_cast<int16_t>(t_hi))));
   return _mm_extract_epi16(_mm_minpos_epu16(_mm_or_si128(costs, outside)), 1);
 }
 
 /// Sub-pixel disparity of the cheapest of the 2R + 1 disparities d_top - 1 .. d_top - 2R - 1
 /// of the window at win against rp + t (t = 0 .. 2R + 2, curve index t <-> disparity d_top - t;
 /// R <= 3): the generic path's rowDisparity on the same costs, so both give the same result.
-__attribute__((target("avx2"))) inline float rowDisparityAvx2(const uint8_t* win,
-                                                              const uint8_t* rp,
-                                                              int w,
-                                                              int radius,
-                                                              int d_top) {
+__attribute__((target("avx2"))) inline float rowDisparityAvx2(
+    const uint8_t* win, const uint8_t* rp, int w, int radius, int d_top) {
   const __m128i costs = sad8(win, rp, w);
   const int t = cheapestLane(costs, 1, 2 * radius + 1);
   alignas(16) uint16_t c[9];
@@ -1232,7 +1256,8 @@ float rowDisparity(const uint16_t* cost, int n, int t_lo, int t_hi, int d_top) {
   const int best_t = static_cast<int>(best_key & 63u);
   float d = static_cast<float>(d_top - best_t);
   // cost[t + 1] is disparity d - 1, cost[t - 1] is d + 1.
-  if (best_t > 0 && best_t + 1 < n) d += parabolaOffset(cost[best_t + 1], cost[best_t], cost[best_t - 1]);
+  if (best_t > 0 && best_t + 1 < n)
+    d += parabolaOffset(cost[best_t + 1], cost[best_t], cost[best_t - 1]);
   return d;
 }
 
@@ -1280,14 +1305,30 @@ float rowSpan(const ImageU8& left,
   if (options.zero_mean) {
     for (int k = 0; k < 2; ++k) {
       const int right_row = static_cast<int>(right_at[k] / width);
-      costCurve(kernel, left.data.data() + left_at[k], w, StripSource{&right, nullptr, nullptr}, right_row,
-                start - d_top, n, true, scratch, cost[k]);
+      costCurve(kernel,
+                left.data.data() + left_at[k],
+                w,
+                StripSource{&right, nullptr, nullptr},
+                right_row,
+                start - d_top,
+                n,
+                true,
+                scratch,
+                cost[k]);
     }
   } else {
-    const bool wide_loads = std::max(left_at[0], left_at[1]) + 16 <= size &&
-                            std::max(right_at[0], right_at[1]) + static_cast<size_t>(n - 1) + 16 <= size;
-    shortSadCurves(left.data.data() + left_at[0], right.data.data() + right_at[0], left.data.data() + left_at[1],
-                   right.data.data() + right_at[1], w, n, wide_loads, cost[0], cost[1]);
+    const bool wide_loads =
+        std::max(left_at[0], left_at[1]) + 16 <= size &&
+        std::max(right_at[0], right_at[1]) + static_cast<size_t>(n - 1) + 16 <= size;
+    shortSadCurves(left.data.data() + left_at[0],
+                   right.data.data() + right_at[0],
+                   left.data.data() + left_at[1],
+                   right.data.data() + right_at[1],
+                   w,
+                   n,
+                   wide_loads,
+                   cost[0],
+                   cost[1]);
   }
   float lo = hyp.d_px;
   float hi = hyp.d_px;
@@ -1318,14 +1359,15 @@ __attribute__((target("avx2"))) void rowSupportAvx2(const ImageU8& left,
   for (const SalientPoint& point : hyps->points) {
     const Corner& corner = point.corner;
     const bool rows_inside = corner.v_px >= 1 && corner.v_px + 1 < height;
-    for (uint32_t j = point.first_hypothesis; j < point.first_hypothesis + point.num_hypotheses; ++j) {
+    for (uint32_t j = point.first_hypothesis; j < point.first_hypothesis + point.num_hypotheses;
+         ++j) {
       DisparityHypothesis& hyp = hyps->hypotheses[j];
       const int start = corner.u_px + hyp.window_shift_px - h;
       const int centre_d = static_cast<int>(hyp.d_px + 0.5f);
       const int d_top = centre_d + radius + 1;
       const size_t row_above = static_cast<size_t>(corner.v_px - 1) * width;
-      const bool fast = rows_inside && radius <= 3 && hyp.row_offset_px == 0 && start + w <= width &&
-                        centre_d - radius - 1 >= 0 && d_top <= start &&
+      const bool fast = rows_inside && radius <= 3 && hyp.row_offset_px == 0 &&
+                        start + w <= width && centre_d - radius - 1 >= 0 && d_top <= start &&
                         row_above + 2 * width + start + 16 <= size &&
                         row_above + 2 * width + (start - d_top) + 32 <= size;
       if (!fast) {
@@ -1354,8 +1396,9 @@ Status measureRowSupport(const ImageU8& left,
     const SalientPoint& p = hyps->points[pi];
     if (static_cast<size_t>(p.first_hypothesis) + p.num_hypotheses > hyps->hypotheses.size()) {
       return Status::error("point " + std::to_string(pi) + " references hypotheses [" +
-                           std::to_string(p.first_hypothesis) + ", +" + std::to_string(p.num_hypotheses) +
-                           ") of " + std::to_string(hyps->hypotheses.size()));
+                           std::to_string(p.first_hypothesis) + ", +" +
+                           std::to_string(p.num_hypotheses) + ") of " +
+                           std::to_string(hyps->hypotheses.size()));
     }
   }
   for (DisparityHypothesis& hyp : hyps->hypotheses) hyp.row_span_px = 0.0f;
@@ -1369,8 +1412,10 @@ Status measureRowSupport(const ImageU8& left,
 #endif
   CurveScratch scratch;
   for (const SalientPoint& point : hyps->points) {
-    for (uint32_t j = point.first_hypothesis; j < point.first_hypothesis + point.num_hypotheses; ++j) {
-      hyps->hypotheses[j].row_span_px = rowSpan(left, right, options, kernel, point.corner, hyps->hypotheses[j], &scratch);
+    for (uint32_t j = point.first_hypothesis; j < point.first_hypothesis + point.num_hypotheses;
+         ++j) {
+      hyps->hypotheses[j].row_span_px =
+          rowSpan(left, right, options, kernel, point.corner, hyps->hypotheses[j], &scratch);
     }
   }
   return Status::ok();

@@ -106,8 +106,8 @@ struct SalientSadOptions {
   /// pixel off the integer grid costs about as little as one on it. The right-to-left check
   /// uses it too (left intervals); row support and pairCorners() stay plain SAD. With
   /// zero_mean the window means come from the pixels and the mean-shifted left pixel is
-  /// compared with the interval. false here (the papers' cost, and the matcher's stereo-eval figures);
-  /// `twocam run` turns it on (docs/frontend.md, "Sampling-insensitive cost").
+  /// compared with the interval. false here (the papers' cost, and the matcher's stereo-eval
+  /// figures); `twocam run` turns it on (docs/frontend.md, "Sampling-insensitive cost").
   bool birchfield_tomasi = false;
   /// Which SAD implementation to run (results are identical; see SadKernel).
   SadKernel kernel = SadKernel::kAuto;
@@ -137,9 +137,9 @@ struct SalientSadOptions {
 ///
 /// Per hypothesis: d_px is the integer minimum refined by a parabola through the costs at
 /// d-1, d, d+1 of the same curve, i.e. row and window alignment (|offset| <= 0.5; integer at
-/// the ends of the searched range); cost is that window's SAD (or interval cost, birchfield_tomasi) [grey levels] at the integer
-/// minimum; row_offset_px is r. Equal costs prefer small |r| (then r < 0), then the centred
-/// window, then small d.
+/// the ends of the searched range); cost is that window's SAD (or interval cost, birchfield_tomasi)
+/// [grey levels] at the integer minimum; row_offset_px is r. Equal costs prefer small |r| (then r <
+/// 0), then the centred window, then small d.
 ///
 /// Disparities whose right window would leave the image are not searched, nor are right rows
 /// outside the image. out is cleared first and its capacity reused; out->t_ns is untouched.

@@ -19,6 +19,8 @@ struct ContactSheetRow {
 };
 
 /// Writes a PNG with one row per entry: left | right | depth, each scaled by `scale`.
-Status writeContactSheet(const std::vector<ContactSheetRow>& rows, const std::string& path, double scale = 0.5);
+Status writeContactSheet(const std::vector<ContactSheetRow>& rows,
+                         const std::string& path,
+                         double scale = 0.5);
 
 }  // namespace twocam::io

@@ -1,15 +1,5 @@
 #include "io/rawlog.h"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <deque>
-#include <filesystem>
-#include <limits>
-#include <optional>
-#include <sstream>
-
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
@@ -25,8 +15,18 @@
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DQuat.h>
 #include <mrpt/serialization/CArchive.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
+#include <sstream>
 
 namespace twocam::io {
 
@@ -38,7 +38,8 @@ constexpr const char* kHeaderPrefix = "twocam rawlog v1";
 constexpr const char* kEndPrefix = "twocam rawlog end";
 
 mrpt::Clock::time_point toMrptTime(int64_t t_ns) {
-  return mrpt::Clock::time_point(std::chrono::duration_cast<mrpt::Clock::duration>(std::chrono::nanoseconds(t_ns)));
+  return mrpt::Clock::time_point(
+      std::chrono::duration_cast<mrpt::Clock::duration>(std::chrono::nanoseconds(t_ns)));
 }
 /// MRPT time stamps count 100 ns ticks since 1601-01-01 (Windows FILETIME). TwoCam's writer
 /// stores t_ns directly as ticks (simulated runs start at 1 s; EuRoC's UNIX-epoch stamps land
@@ -86,7 +87,8 @@ Status writePng(const ImageU8& img, const std::string& path) {
     // 1); Huffman-only coding suits noisy sensor images, where LZ77 finds no matches. Measured on
     // a simulated 640x480 frame: 3.6 ms and 190 KB, against 7.8 ms and 198 KB at level 1 with
     // the default strategy (lossless either way).
-    if (cv::imwrite(path, m, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY})) return Status::ok();
+    if (cv::imwrite(path, m, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY}))
+      return Status::ok();
   } catch (const cv::Exception& e) {
     return Status::error("cannot write image " + path + ": " + e.what());
   }
@@ -103,8 +105,10 @@ std::string frameName(const char* prefix, int index) {
 
 Status RawlogWriterOptions::validate() const {
   if (gzip_level < 0 || gzip_level > 9) return Status::error("gzip_level must be in [0, 9]");
-  if (!(depth_unit_m >= 0.0) || !std::isfinite(depth_unit_m)) return Status::error("depth_unit_m must be >= 0");
-  if (!(max_depth_m > 0.0) || !std::isfinite(max_depth_m)) return Status::error("max_depth_m must be > 0");
+  if (!(depth_unit_m >= 0.0) || !std::isfinite(depth_unit_m))
+    return Status::error("depth_unit_m must be >= 0");
+  if (!(max_depth_m > 0.0) || !std::isfinite(max_depth_m))
+    return Status::error("max_depth_m must be > 0");
   return Status::ok();
 }
 
@@ -135,20 +139,23 @@ Status RawlogWriter::open(const std::string& path,
   if (p.filename().empty()) return Status::error("output path '" + path + "' names no file");
   const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return Status::error("cannot write '" + path + "': folder '" + dir.string() + "' does not exist");
+  if (!fs::is_directory(dir, ec))
+    return Status::error("cannot write '" + path + "': folder '" + dir.string() +
+                         "' does not exist");
   w->images_dir_ = (dir / (p.stem().string() + "_Images")).string();
   w->partial_images_dir_ = w->images_dir_ + ".partial";
   w->rig_ = rig;
   w->options_ = options;
   fs::remove_all(w->partial_images_dir_, ec);
   if (!fs::create_directories(w->partial_images_dir_, ec) || ec) {
-    return Status::error("cannot write '" + path + "': cannot create folder '" + w->partial_images_dir_ + "'" +
-                         (ec ? ": " + ec.message() : ""));
+    return Status::error("cannot write '" + path + "': cannot create folder '" +
+                         w->partial_images_dir_ + "'" + (ec ? ": " + ec.message() : ""));
   }
   std::string err;
   if (!w->impl_->stream.open(w->partial_path_, options.gzip_level, err)) {
     fs::remove_all(w->partial_images_dir_, ec);
-    return Status::error("cannot write '" + path + "': cannot open '" + w->partial_path_ + "'" + (err.empty() ? "" : ": " + err));
+    return Status::error("cannot write '" + path + "': cannot open '" + w->partial_path_ + "'" +
+                         (err.empty() ? "" : ": " + err));
   }
   *out = std::move(w);
   return Status::ok();
@@ -162,7 +169,9 @@ RawlogWriter::~RawlogWriter() {
   if (!partial_images_dir_.empty()) fs::remove_all(partial_images_dir_, ec);
 }
 
-Status RawlogWriter::write(const StereoFrame& stereo, const OdometrySample* odometry, const GroundTruthFrame* gt) {
+Status RawlogWriter::write(const StereoFrame& stereo,
+                           const OdometrySample* odometry,
+                           const GroundTruthFrame* gt) {
   if (finished_) return Status::error("rawlog writer: write() after finish()");
   if (stereo.left.width != rig_.width_px || stereo.left.height != rig_.height_px ||
       stereo.right.width != rig_.width_px || stereo.right.height != rig_.height_px) {
@@ -175,8 +184,8 @@ Status RawlogWriter::write(const StereoFrame& stereo, const OdometrySample* odom
     try {
       mrpt::obs::CObservationComment header;
       std::ostringstream os;
-      os << kHeaderPrefix << "; observations-only; labels " << kStereoLabel << " " << kOdometryLabel << " " << kGtPoseLabel
-         << " " << kGtDepthLabel << "; depth_unit_m " << depthUnit(options_);
+      os << kHeaderPrefix << "; observations-only; labels " << kStereoLabel << " " << kOdometryLabel
+         << " " << kGtPoseLabel << " " << kGtDepthLabel << "; depth_unit_m " << depthUnit(options_);
       header.text = os.str();
       header.sensorLabel = "TWOCAM";
       header.timestamp = t;
@@ -209,7 +218,8 @@ Status RawlogWriter::write(const StereoFrame& stereo, const OdometrySample* odom
       mrpt::obs::CObservationOdometry odo;
       odo.sensorLabel = kOdometryLabel;
       odo.timestamp = toMrptTime(odometry->t_ns);
-      odo.odometry = mrpt::poses::CPose2D(odometry->pose.x_m, odometry->pose.y_m, odometry->pose.yaw_rad);
+      odo.odometry =
+          mrpt::poses::CPose2D(odometry->pose.x_m, odometry->pose.y_m, odometry->pose.yaw_rad);
       arch << odo;
     }
     if (gt != nullptr) {
@@ -262,9 +272,12 @@ Status RawlogWriter::finish() {
   std::error_code ec;
   fs::remove_all(images_dir_, ec);
   fs::rename(partial_images_dir_, images_dir_, ec);
-  if (ec) return Status::error("cannot move '" + partial_images_dir_ + "' to '" + images_dir_ + "': " + ec.message());
+  if (ec)
+    return Status::error("cannot move '" + partial_images_dir_ + "' to '" + images_dir_ +
+                         "': " + ec.message());
   fs::rename(partial_path_, path_, ec);
-  if (ec) return Status::error("cannot move '" + partial_path_ + "' to '" + path_ + "': " + ec.message());
+  if (ec)
+    return Status::error("cannot move '" + partial_path_ + "' to '" + path_ + "': " + ec.message());
   finished_ = true;
   return Status::ok();
 }
@@ -317,7 +330,8 @@ struct RawlogReader::Impl {
           // The accumulated action odometry goes in front of each stereo observation of the
           // frame, with its time stamp, so that an explicit CObservationOdometry with the same
           // stamp (before or after it) takes precedence.
-          if (action_odometry && std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
+          if (action_odometry &&
+              std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
             auto odo = std::make_shared<mrpt::obs::CObservationOdometry>();
             odo->sensorLabel = "ACTIONS";
             odo->timestamp = o->timestamp;
@@ -332,7 +346,8 @@ struct RawlogReader::Impl {
         // body pose before the first increment).
         if (auto mv = acts->getBestMovementEstimation()) {
           mrpt::poses::CPose2D increment = mv->rawOdometryIncrementReading;
-          if (mv->estimationMethod != mrpt::obs::CActionRobotMovement2D::emOdometry && mv->poseChange) {
+          if (mv->estimationMethod != mrpt::obs::CActionRobotMovement2D::emOdometry &&
+              mv->poseChange) {
             mv->poseChange->getMean(increment);
           }
           action_odometry = action_odometry.value_or(mrpt::poses::CPose2D()) + increment;
@@ -351,19 +366,27 @@ struct RawlogReader::Impl {
       std::string file = img.getExternalStorageFile();
       if (!fs::path(file).is_absolute()) file = images_dir + "/" + file;
       std::error_code ec;
-      if (!fs::is_regular_file(file, ec)) return Status::error(std::string(side) + " image file '" + file + "' is missing");
+      if (!fs::is_regular_file(file, ec))
+        return Status::error(std::string(side) + " image file '" + file + "' is missing");
       grey = cv::imread(file, cv::IMREAD_GRAYSCALE);
-      if (grey.empty()) return Status::error("cannot read " + std::string(side) + " image file '" + file + "'");
+      if (grey.empty())
+        return Status::error("cannot read " + std::string(side) + " image file '" + file + "'");
     } else {
       const cv::Mat& m = img.asCvMatRef();
       if (m.empty()) return Status::error(std::string(side) + " image has no data");
-      if (m.depth() != CV_8U) return Status::error(std::string(side) + " image is not 8-bit (only 8-bit grey or colour)");
-      if (m.channels() == 3) cv::cvtColor(m, grey, cv::COLOR_BGR2GRAY);
-      else if (m.channels() == 1) grey = m;
-      else return Status::error(std::string(side) + " image has " + std::to_string(m.channels()) + " channels (only 1 or 3)");
+      if (m.depth() != CV_8U)
+        return Status::error(std::string(side) + " image is not 8-bit (only 8-bit grey or colour)");
+      if (m.channels() == 3)
+        cv::cvtColor(m, grey, cv::COLOR_BGR2GRAY);
+      else if (m.channels() == 1)
+        grey = m;
+      else
+        return Status::error(std::string(side) + " image has " + std::to_string(m.channels()) +
+                             " channels (only 1 or 3)");
     }
     *out = ImageU8(grey.cols, grey.rows);
-    for (int v = 0; v < grey.rows; ++v) std::memcpy(out->row(v), grey.ptr<uint8_t>(v), static_cast<size_t>(grey.cols));
+    for (int v = 0; v < grey.rows; ++v)
+      std::memcpy(out->row(v), grey.ptr<uint8_t>(v), static_cast<size_t>(grey.cols));
     return Status::ok();
   }
 };
@@ -422,8 +445,10 @@ Status checkRectified(const mrpt::obs::CObservationStereoImages& obs) {
   for (const auto* cam : {&obs.leftCamera, &obs.rightCamera}) {
     for (double k : cam->dist) {
       if (k != 0.0) {
-        return Status::error(std::string("stereo images are not rectified (") + (cam == &obs.leftCamera ? "left" : "right") +
-                             " camera has non-zero distortion; MRPT marks rectified pairs with zero distortion)");
+        return Status::error(
+            std::string("stereo images are not rectified (") +
+            (cam == &obs.leftCamera ? "left" : "right") +
+            " camera has non-zero distortion; MRPT marks rectified pairs with zero distortion)");
       }
     }
   }
@@ -434,16 +459,19 @@ Status checkRectified(const mrpt::obs::CObservationStereoImages& obs) {
 /// stored doubles and a calibration does not change within a log, so only rounding is allowed.
 bool sameCalibration(const StereoRig& a, const StereoRig& b) {
   constexpr double kRelTol = 1e-9;
-  auto near = [&](double x, double y) { return std::abs(x - y) <= kRelTol * std::max({1.0, std::abs(x), std::abs(y)}); };
-  return a.width_px == b.width_px && a.height_px == b.height_px && near(a.fx_px, b.fx_px) && near(a.fy_px, b.fy_px) &&
-         near(a.cx_px, b.cx_px) && near(a.cy_px, b.cy_px) && near(a.baseline_m, b.baseline_m) &&
-         a.T_b_cl.isApprox(b.T_b_cl, kRelTol);
+  auto near = [&](double x, double y) {
+    return std::abs(x - y) <= kRelTol * std::max({1.0, std::abs(x), std::abs(y)});
+  };
+  return a.width_px == b.width_px && a.height_px == b.height_px && near(a.fx_px, b.fx_px) &&
+         near(a.fy_px, b.fy_px) && near(a.cx_px, b.cx_px) && near(a.cy_px, b.cy_px) &&
+         near(a.baseline_m, b.baseline_m) && a.T_b_cl.isApprox(b.T_b_cl, kRelTol);
 }
 }  // namespace
 
 Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>* out) {
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return Status::error("cannot open log '" + path + "': no such file");
+  if (!fs::is_regular_file(path, ec))
+    return Status::error("cannot open log '" + path + "': no such file");
   std::unique_ptr<RawlogReader> r(new RawlogReader());
   r->impl_ = std::make_unique<Impl>();
   r->impl_->path = path;
@@ -459,7 +487,8 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
       ++observations;
       seen.push_back(o);
       if (auto s = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
-        if (Status st = checkRectified(*s); !st) return Status::error("log '" + path + "': " + st.message());
+        if (Status st = checkRectified(*s); !st)
+          return Status::error("log '" + path + "': " + st.message());
         r->rig_ = rigFromObservation(*s);
         r->impl_->stereo_label = s->sensorLabel;
         r->impl_->rig_known = true;
@@ -468,13 +497,16 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
     }
     for (auto it = seen.rbegin(); it != seen.rend(); ++it) r->impl_->pending.push_front(*it);
   } catch (const std::exception& e) {
-    return Status::error("cannot read log '" + path + "': corrupt, truncated or not an MRPT rawlog (" + shortWhat(e) + ")");
+    return Status::error("cannot read log '" + path +
+                         "': corrupt, truncated or not an MRPT rawlog (" + shortWhat(e) + ")");
   }
   if (!r->impl_->rig_known) {
-    return Status::error("log '" + path + "' has no stereo images (no CObservationStereoImages among its " +
+    return Status::error("log '" + path +
+                         "' has no stereo images (no CObservationStereoImages among its " +
                          std::to_string(observations) + " observations)");
   }
-  if (Status st = r->rig_.validate(); !st) return Status::error("log '" + path + "': bad stereo calibration: " + st.message());
+  if (Status st = r->rig_.validate(); !st)
+    return Status::error("log '" + path + "': bad stereo calibration: " + st.message());
   *out = std::move(r);
   return Status::ok();
 }
@@ -482,7 +514,8 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
 bool RawlogReader::next(LogFrame* frame, Status* status) {
   *status = Status::ok();
   auto fail = [&](const std::string& message) {
-    *status = Status::error("log '" + impl_->path + "', frame " + std::to_string(index_) + ": " + message);
+    *status = Status::error("log '" + impl_->path + "', frame " + std::to_string(index_) + ": " +
+                            message);
     return false;
   };
   if (impl_->deferred_error) {
@@ -501,14 +534,15 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       auto o = impl_->read();
       if (!o) {
         if (impl_->is_twocam && !impl_->saw_end_marker)
-          *status = Status::error("log '" + impl_->path + "' ends without its end marker after " + std::to_string(index_) +
-                                  " frames: truncated?");
+          *status = Status::error("log '" + impl_->path + "' ends without its end marker after " +
+                                  std::to_string(index_) + " frames: truncated?");
         return false;
       }
       if (auto s = std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
         if (s->sensorLabel == impl_->stereo_label) stereo = s;
       } else if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
-        odo_before = OdometrySample{fromMrptTime(od->timestamp), Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
+        odo_before = OdometrySample{fromMrptTime(od->timestamp),
+                                    Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
       }
     }
     *frame = LogFrame();
@@ -516,20 +550,24 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
     frame->stereo.t_ns = fromMrptTime(stereo->timestamp);
     if (odo_before && odo_before->t_ns == frame->stereo.t_ns) frame->odometry = odo_before;
     if (Status st = checkRectified(*stereo); !st) return fail(st.message());
-    if (!sameCalibration(rigFromObservation(*stereo), rig_)) return fail("stereo calibration differs from the first frame's");
+    if (!sameCalibration(rigFromObservation(*stereo), rig_))
+      return fail("stereo calibration differs from the first frame's");
     if (!stereo->hasImageRight) return fail("stereo observation has no right image");
-    if (Status st = impl_->loadImage(stereo->imageLeft, "left", &frame->stereo.left); !st) return fail(st.message());
-    if (Status st = impl_->loadImage(stereo->imageRight, "right", &frame->stereo.right); !st) return fail(st.message());
+    if (Status st = impl_->loadImage(stereo->imageLeft, "left", &frame->stereo.left); !st)
+      return fail(st.message());
+    if (Status st = impl_->loadImage(stereo->imageRight, "right", &frame->stereo.right); !st)
+      return fail(st.message());
     const ImageU8& l = frame->stereo.left;
     const ImageU8& r = frame->stereo.right;
     const auto& lc = stereo->leftCamera;
     const auto& rc = stereo->rightCamera;
-    if (l.width != static_cast<int>(lc.ncols) || l.height != static_cast<int>(lc.nrows) || r.width != static_cast<int>(rc.ncols) ||
-        r.height != static_cast<int>(rc.nrows) || l.width != r.width || l.height != r.height) {
+    if (l.width != static_cast<int>(lc.ncols) || l.height != static_cast<int>(lc.nrows) ||
+        r.width != static_cast<int>(rc.ncols) || r.height != static_cast<int>(rc.nrows) ||
+        l.width != r.width || l.height != r.height) {
       std::ostringstream os;
       os << "images " << l.width << "x" << l.height << " (left) / " << r.width << "x" << r.height
-         << " (right) do not match the observation's calibration " << lc.ncols << "x" << lc.nrows << " / " << rc.ncols << "x"
-         << rc.nrows << " (both images must have the calibrated size)";
+         << " (right) do not match the observation's calibration " << lc.ncols << "x" << lc.nrows
+         << " / " << rc.ncols << "x" << rc.nrows << " (both images must have the calibrated size)";
       return fail(os.str());
     }
     // Following observations with the same time stamp.
@@ -542,12 +580,14 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
         break;
       }
       if (!o) break;
-      if (fromMrptTime(o->timestamp) != frame->stereo.t_ns || std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
+      if (fromMrptTime(o->timestamp) != frame->stereo.t_ns ||
+          std::dynamic_pointer_cast<mrpt::obs::CObservationStereoImages>(o)) {
         impl_->pending.push_front(o);
         break;
       }
       if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
-        frame->odometry = OdometrySample{frame->stereo.t_ns, Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
+        frame->odometry = OdometrySample{
+            frame->stereo.t_ns, Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
       } else if (auto gp = std::dynamic_pointer_cast<mrpt::obs::CObservationRobotPose>(o)) {
         if (!frame->ground_truth) frame->ground_truth = GroundTruthFrame{};
         frame->ground_truth->t_ns = frame->stereo.t_ns;
@@ -557,9 +597,12 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
         d->load();
         if (!frame->ground_truth) frame->ground_truth = GroundTruthFrame{};
         auto& img = frame->ground_truth->depth_left;
-        img = ImageF32(static_cast<int>(d->rangeImage.cols()), static_cast<int>(d->rangeImage.rows()));
+        img = ImageF32(static_cast<int>(d->rangeImage.cols()),
+                       static_cast<int>(d->rangeImage.rows()));
         for (int v = 0; v < img.height; ++v)
-          for (int u = 0; u < img.width; ++u) img(u, v) = static_cast<float>(d->rangeImage(v, u) * static_cast<double>(d->rangeUnits));
+          for (int u = 0; u < img.width; ++u)
+            img(u, v) =
+                static_cast<float>(d->rangeImage(v, u) * static_cast<double>(d->rangeUnits));
       }
     }
   } catch (const std::exception& e) {

@@ -57,7 +57,9 @@ class RawlogWriter {
   RawlogWriter& operator=(const RawlogWriter&) = delete;
 
   /// Appends one frame. odometry and ground_truth may be null.
-  Status write(const StereoFrame& stereo, const OdometrySample* odometry, const GroundTruthFrame* ground_truth);
+  Status write(const StereoFrame& stereo,
+               const OdometrySample* odometry,
+               const GroundTruthFrame* ground_truth);
 
   /// Closes the stream and moves the log and its image folder into place.
   Status finish();

@@ -16,8 +16,18 @@ std::string toTum(const std::vector<TimedPose>& poses, const std::string& commen
     const Eigen::Vector3d& t = p.T_w_b.translation();
     const int64_t s = p.t_ns / 1000000000;
     const int64_t ns = p.t_ns % 1000000000;
-    std::snprintf(line, sizeof(line), "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n", static_cast<long long>(s),
-                  static_cast<long long>(ns < 0 ? -ns : ns), t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    std::snprintf(line,
+                  sizeof(line),
+                  "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n",
+                  static_cast<long long>(s),
+                  static_cast<long long>(ns < 0 ? -ns : ns),
+                  t.x(),
+                  t.y(),
+                  t.z(),
+                  q.x(),
+                  q.y(),
+                  q.z(),
+                  q.w());
     out += line;
   }
   return out;
@@ -37,18 +47,23 @@ Status parseTum(const std::string& text, std::vector<TimedPose>* poses) {
     int n = 0;
     std::string token;
     while (fields >> token) {
-      if (n == 8) return Status::error("TUM line " + std::to_string(line_no) + ": more than 8 fields");
+      if (n == 8)
+        return Status::error("TUM line " + std::to_string(line_no) + ": more than 8 fields");
       char* end = nullptr;
       v[n] = std::strtod(token.c_str(), &end);
       if (end == token.c_str() || *end != '\0' || !std::isfinite(v[n])) {
-        return Status::error("TUM line " + std::to_string(line_no) + ": '" + token + "' is not a finite number");
+        return Status::error("TUM line " + std::to_string(line_no) + ": '" + token +
+                             "' is not a finite number");
       }
       ++n;
     }
-    if (n != 8) return Status::error("TUM line " + std::to_string(line_no) + ": expected 8 fields, got " + std::to_string(n));
+    if (n != 8)
+      return Status::error("TUM line " + std::to_string(line_no) + ": expected 8 fields, got " +
+                           std::to_string(n));
     Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (std::abs(q.norm() - 1.0) > 1e-3) {
-      return Status::error("TUM line " + std::to_string(line_no) + ": quaternion norm " + std::to_string(q.norm()) + " is not 1");
+      return Status::error("TUM line " + std::to_string(line_no) + ": quaternion norm " +
+                           std::to_string(q.norm()) + " is not 1");
     }
     q.normalize();
     TimedPose p;

@@ -3,11 +3,10 @@
 /// "t x y z qx qy qz qw" with t in seconds and the body pose in the world frame; lines starting
 /// with '#' are comments.
 
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "common/status.h"
 

@@ -36,30 +36,35 @@ Status LandmarkDatabase::update(int32_t frame,
                                 FrameReport* report,
                                 const DisparityProbe* probe) {
   TWOCAM_CHECK(report != nullptr);
-  if (!std::isfinite(odom_pose.x_m) || !std::isfinite(odom_pose.y_m) || !std::isfinite(odom_pose.yaw_rad)) {
+  if (!std::isfinite(odom_pose.x_m) || !std::isfinite(odom_pose.y_m) ||
+      !std::isfinite(odom_pose.yaw_rad)) {
     std::ostringstream msg;
-    msg << "frame " << frame << ": odometry pose is not finite (x=" << odom_pose.x_m << ", y=" << odom_pose.y_m
-        << ", yaw=" << odom_pose.yaw_rad << ")";
+    msg << "frame " << frame << ": odometry pose is not finite (x=" << odom_pose.x_m
+        << ", y=" << odom_pose.y_m << ", yaw=" << odom_pose.yaw_rad << ")";
     return Status::error(msg.str());
   }
   if (has_previous_ && frame <= frame_) {
-    return Status::error("frame index " + std::to_string(frame) + " does not follow frame " + std::to_string(frame_));
+    return Status::error("frame index " + std::to_string(frame) + " does not follow frame " +
+                         std::to_string(frame_));
   }
   if (has_previous_ && t_ns < t_ns_) {
-    return Status::error("frame " + std::to_string(frame) + ": time stamp goes backwards (" + std::to_string(t_ns) +
-                         " ns after " + std::to_string(t_ns_) + " ns)");
+    return Status::error("frame " + std::to_string(frame) + ": time stamp goes backwards (" +
+                         std::to_string(t_ns) + " ns after " + std::to_string(t_ns_) + " ns)");
   }
   for (size_t i = 0; i < hyps.points.size(); ++i) {
     const SalientPoint& p = hyps.points[i];
-    if (static_cast<size_t>(p.first_hypothesis) + p.num_hypotheses > hyps.hypotheses.size() || p.corner.u_px < 0 ||
-        p.corner.v_px < 0 || p.corner.u_px >= rig_.width_px || p.corner.v_px >= rig_.height_px) {
-      return Status::error("frame " + std::to_string(frame) + ": salient point " + std::to_string(i) +
+    if (static_cast<size_t>(p.first_hypothesis) + p.num_hypotheses > hyps.hypotheses.size() ||
+        p.corner.u_px < 0 || p.corner.v_px < 0 || p.corner.u_px >= rig_.width_px ||
+        p.corner.v_px >= rig_.height_px) {
+      return Status::error("frame " + std::to_string(frame) + ": salient point " +
+                           std::to_string(i) +
                            " is outside the image or references missing hypotheses");
     }
   }
   for (const DisparityHypothesis& h : hyps.hypotheses) {
     if (h.point_index >= hyps.points.size() || !std::isfinite(h.d_px)) {
-      return Status::error("frame " + std::to_string(frame) + ": a hypothesis has a bad point index or disparity");
+      return Status::error("frame " + std::to_string(frame) +
+                           ": a hypothesis has a bad point index or disparity");
     }
   }
 
@@ -112,18 +117,21 @@ Status LandmarkDatabase::update(int32_t frame,
       const Corner& c = hyps.points[h.point_index].corner;
       const int32_t k = fill[c.v_px * cells_per_row + c.u_px / kCellWidthPx]++;
       grid_items_[k] = static_cast<int32_t>(j);
-      grid_uvd_[k] = {static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px, h.point_index};
+      grid_uvd_[k] = {
+          static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px, h.point_index};
     }
   }
   const double d_range = options_.max_disparity_px - options_.min_disparity_px + 1.0;
-  hypothesis_density_ =
-      static_cast<double>(hyps.hypotheses.size()) / (static_cast<double>(rig_.width_px) * rig_.height_px * d_range);
+  hypothesis_density_ = static_cast<double>(hyps.hypotheses.size()) /
+                        (static_cast<double>(rig_.width_px) * rig_.height_px * d_range);
 
   predictAll(T_cl_w_, hyps);
   associate(hyps, report);
-  if (probe != nullptr && *probe && options_.probe_unseen && options_.policy == Policy::kConsistency) {
+  if (probe != nullptr && *probe && options_.probe_unseen &&
+      options_.policy == Policy::kConsistency) {
     if (Status s = probeUnseen(*probe, report); !s) {
-      return Status::error("frame " + std::to_string(frame) + ": re-measuring unseen candidates: " + s.message());
+      return Status::error("frame " + std::to_string(frame) +
+                           ": re-measuring unseen candidates: " + s.message());
     }
   }
   scoreAndLifeCycle(report);
@@ -208,7 +216,8 @@ void LandmarkDatabase::normaliseGroup(uint32_t group) {
   for (int i = 0; i < g.count; ++i) slots_[g.members[i]].confidence = static_cast<float>(prob[i]);
 }
 
-void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& /*hyps*/) {
+void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
+                                  const StereoHypotheses& /*hyps*/) {
   predictions_.clear();
   visible_.assign(slots_.size(), 0);
   associated_.assign(slots_.size(), 0);
@@ -226,8 +235,9 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoH
     const Eigen::Vector3d p_cl = T_cl_w * hot.p_w_last;
     Eigen::Vector3d uvd;
     const bool in_view = p_cl.z() >= options_.min_depth_m && projectStereo(rig_, p_cl, &uvd) &&
-                         uvd.x() >= border && uvd.x() <= rig_.width_px - 1 - border && uvd.y() >= border &&
-                         uvd.y() <= rig_.height_px - 1 - border && uvd.z() >= options_.min_disparity_px - 1.0 &&
+                         uvd.x() >= border && uvd.x() <= rig_.width_px - 1 - border &&
+                         uvd.y() >= border && uvd.y() <= rig_.height_px - 1 - border &&
+                         uvd.z() >= options_.min_disparity_px - 1.0 &&
                          uvd.z() <= options_.max_disparity_px + 1.0;
     if (!in_view) {
       // Only candidates age out of view; confirmed landmarks are kept until they return.
@@ -255,8 +265,8 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w, const StereoH
     p.inv_var_d = static_cast<float>(1.0 / (sigma.d_px * sigma.d_px));
     p.gate_u = static_cast<float>(g * sigma.u_px);
     p.gate_v = static_cast<float>(g * sigma.v_px);
-    p.p_false_hit_per_hyp =
-        static_cast<float>(std::min(0.99, hypothesis_density_ * ellipsoid * sigma.u_px * sigma.v_px * sigma.d_px));
+    p.p_false_hit_per_hyp = static_cast<float>(
+        std::min(0.99, hypothesis_density_ * ellipsoid * sigma.u_px * sigma.v_px * sigma.d_px));
     predictions_.push_back(p);
   }
 }
@@ -282,7 +292,8 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       float best_d2 = gate;
       // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
       // than one the association is ambiguous and is not made (see below).
-      const bool count_points = pass == 0 && options_.policy == Policy::kConsistency && options_.unambiguous_confirmed_hits;
+      const bool count_points = pass == 0 && options_.policy == Policy::kConsistency &&
+                                options_.unambiguous_confirmed_hits;
       uint32_t first_point = UINT32_MAX;
       bool ambiguous = false;
       // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
@@ -290,7 +301,9 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       // hypotheses on average).
       for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
         const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
-        for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0]; it != row_end; ++it) {
+        for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
+             it != row_end;
+             ++it) {
           const GridEntry& e = *it;
           const float du = e.u - p.u;
           const float dv = e.v - p.v;
@@ -364,7 +377,8 @@ Status LandmarkDatabase::probeUnseen(const DisparityProbe& probe, FrameReport* r
            (probe_pixels_[k].u_px != sp.corner.u_px || probe_pixels_[k].v_px != sp.corner.v_px)) {
       ++k;
     }
-    if (k == probe_pixels_.size()) return Status::error("the probe returned a pixel it was not asked for");
+    if (k == probe_pixels_.size())
+      return Status::error("the probe returned a pixel it was not asked for");
     const Prediction& p = predictions_[probe_prediction_[k++]];
     // One answer only: where the matcher finds several, the point may be any of them (or a
     // periodic alias of the candidate), so the measurement says nothing and the miss stands.
@@ -389,10 +403,13 @@ Eigen::Isometry3d LandmarkDatabase::anchorCameraPose(const Landmark& l) const {
 }
 
 bool LandmarkDatabase::rowSupported(const DisparityHypothesis& h) const {
-  return h.row_span_px <= std::max(options_.max_row_span_px, options_.max_row_span_relative * h.d_px);
+  return h.row_span_px <=
+         std::max(options_.max_row_span_px, options_.max_row_span_relative * h.d_px);
 }
 
-bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c) {
+bool LandmarkDatabase::applyObservation(uint32_t slot,
+                                        const DisparityHypothesis& h,
+                                        const Corner& c) {
   Landmark& l = slots_[slot];
   if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
     const Eigen::Isometry3d T_w_anchor = anchorCameraPose(l);
@@ -420,8 +437,8 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
     // Verification: the consistent re-observations together favour this candidate over either
     // phantom by verify_llr (docs/landmarks.md, "Verification").
     for (int k = 0; k < 2; ++k) {
-      l.phantom_llr[k] = static_cast<float>(
-          std::min(kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
+      l.phantom_llr[k] = static_cast<float>(std::min(
+          kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
     }
     if (std::min(l.phantom_llr[0], l.phantom_llr[1]) >= options_.verify_llr) l.verified = true;
     if (l.max_parallax_rad < min_parallax_rad_) {  // only needed until the rule is met
@@ -453,7 +470,8 @@ bool LandmarkDatabase::applyObservation(uint32_t slot, const DisparityHypothesis
     hot_[slot].p_w_last = l.p_w_last;
     if (options_.policy == Policy::kInlierRatio && l.state == LandmarkState::kCandidate) {
       // The measurement as an inverse depth along the anchor ray (SVO's seed parametrisation).
-      const Eigen::Vector3d p_anchor = cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_).inverse() * l.p_w_last;
+      const Eigen::Vector3d p_anchor =
+          cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_).inverse() * l.p_w_last;
       if (p_anchor.z() > options_.min_depth_m) {
         const double fb = rig_.fx_px * rig_.baseline_m;
         const double ratio = p_cl->z() / p_anchor.z();
@@ -485,7 +503,8 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
     if (path_m_ - l.path_at_last_evidence_m < options_.evidence_step_m) continue;
     l.path_at_last_evidence_m = path_m_;
     if (!hit) {
-      l.evidence += static_cast<float>(missEvidence(options_.detection_prob, p.p_false_hit_per_hyp));
+      l.evidence +=
+          static_cast<float>(missEvidence(options_.detection_prob, p.p_false_hit_per_hyp));
     } else if (contradicted_[p.slot]) {
       l.evidence += static_cast<float>(options_.contradiction_evidence);
     } else if (informative_[p.slot] || l.state == LandmarkState::kConfirmed) {
@@ -516,7 +535,8 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
   for (uint32_t s = 0; s < slots_.size(); ++s) {
     // A confirmed landmark's misses change only when it is predicted visible.
     const LandmarkState state = hot_[s].state;
-    if (state == LandmarkState::kFree || (state == LandmarkState::kConfirmed && !visible_[s])) continue;
+    if (state == LandmarkState::kFree || (state == LandmarkState::kConfirmed && !visible_[s]))
+      continue;
     Landmark& l = slots_[s];
     if (l.state == LandmarkState::kConfirmed) {
       if (l.consecutive_misses > options_.max_confirmed_misses) {
@@ -538,9 +558,10 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
         if (l.confidence < options_.prune_prob && l.path_at_last_evidence_m > 0.0) {
           prune_now = true;
         } else {
-          confirm_now = (l.verified || l.rivals_at_creation == 1) && l.confidence >= options_.confirm_prob &&
-                        l.n_obs >= options_.min_observations && l.max_parallax_rad >= min_parallax_rad_ &&
-                        l.n_row_unsupported <= options_.max_row_unsupported_fraction * l.n_obs;
+          confirm_now =
+              (l.verified || l.rivals_at_creation == 1) && l.confidence >= options_.confirm_prob &&
+              l.n_obs >= options_.min_observations && l.max_parallax_rad >= min_parallax_rad_ &&
+              l.n_row_unsupported <= options_.max_row_unsupported_fraction * l.n_obs;
         }
         break;
       }
@@ -549,7 +570,8 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
         break;
       case Policy::kSeenCount: {
         const double age_s = t_s - static_cast<double>(l.first_t_ns) * 1e-9;
-        l.confidence = std::min(1.0f, static_cast<float>(l.n_obs) / static_cast<float>(options_.seen_count_min));
+        l.confidence = std::min(
+            1.0f, static_cast<float>(l.n_obs) / static_cast<float>(options_.seen_count_min));
         if (l.n_obs >= options_.seen_count_min && age_s <= options_.seen_count_window_s) {
           confirm_now = true;
         } else if (age_s > options_.seen_count_window_s) {
@@ -558,10 +580,12 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
         break;
       }
       case Policy::kCulling: {
-        const float ratio = static_cast<float>(l.n_obs) / static_cast<float>(std::max(1, l.n_visible));
+        const float ratio =
+            static_cast<float>(l.n_obs) / static_cast<float>(std::max(1, l.n_visible));
         l.confidence = std::min(1.0f, ratio);
         if (frame_ - l.first_frame >= options_.culling_decision_frames) {
-          if (ratio >= options_.culling_min_found_ratio && l.n_obs >= options_.culling_min_observations) {
+          if (ratio >= options_.culling_min_found_ratio &&
+              l.n_obs >= options_.culling_min_observations) {
             confirm_now = true;
           } else {
             prune_now = true;
@@ -612,7 +636,8 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
     ro.disparity_sigma_px = options_.disparity_sigma_px;
     ro.huber = options_.refine_huber;
     ro.noise_model = options_;
-    if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk) ++report->refined;
+    if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk)
+      ++report->refined;
   }
   // Confirmed landmarks are not re-refined (see LandmarkOptions::refine), so their observations
   // are not needed any more: about 1 kB per landmark, and no per-hit copying.
@@ -645,7 +670,8 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
         // which as a rival would take half the belief and never be told apart by motion.
         bool twin = false;
         for (int i = 0; i < n; ++i) {
-          twin = twin || std::abs(hyps.hypotheses[chosen[i]].d_px - h.d_px) <= options_.same_answer_px;
+          twin =
+              twin || std::abs(hyps.hypotheses[chosen[i]].d_px - h.d_px) <= options_.same_answer_px;
         }
         if (twin) continue;
       }
@@ -661,7 +687,8 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
     if (g != 0) groups_[g - 1].none_mass = 1.0 - prior_real;
     for (int i = 0; i < n; ++i) {
       const DisparityHypothesis& h = hyps.hypotheses[chosen[i]];
-      const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(point.corner.u_px, point.corner.v_px), h.d_px);
+      const auto p_cl =
+          triangulateRectified(rig_, Eigen::Vector2d(point.corner.u_px, point.corner.v_px), h.d_px);
       const uint32_t slot = allocateSlot();
       Landmark& l = slots_[slot];
       l.state = LandmarkState::kCandidate;
@@ -723,10 +750,12 @@ void LandmarkDatabase::enforceCaps(FrameReport* report) {
     std::vector<std::pair<int32_t, uint32_t>> order;  // (last seen frame, slot)
     order.reserve(static_cast<size_t>(num_confirmed_));
     for (uint32_t s = 0; s < slots_.size(); ++s) {
-      if (slots_[s].state == LandmarkState::kConfirmed) order.emplace_back(slots_[s].last_seen_frame, s);
+      if (slots_[s].state == LandmarkState::kConfirmed)
+        order.emplace_back(slots_[s].last_seen_frame, s);
     }
     const size_t excess = order.size() - static_cast<size_t>(options_.max_confirmed);
-    std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(excess), order.end());
+    std::nth_element(
+        order.begin(), order.begin() + static_cast<std::ptrdiff_t>(excess), order.end());
     for (size_t i = 0; i < excess; ++i) releaseSlot(order[i].second, report);
   }
   if (num_candidates_ <= options_.max_candidates) return;

@@ -7,12 +7,11 @@
 /// Frames: w = odometry world frame (equals the true world at the first frame), b = robot body,
 /// cl = left camera optical frame. A landmark's position p_w is in the odometry world frame.
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <functional>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "common/features.h"
 #include "common/frames.h"
@@ -103,7 +102,8 @@ struct Landmark {
 /// Measures stereo hypotheses at given left pixels of the current frame (the frontend's matcher
 /// run on chosen pixels instead of detected corners): one SalientPoint per pixel whose window
 /// fits the image, in input order, each with its hypotheses. See LandmarkOptions::probe_unseen.
-using DisparityProbe = std::function<Status(const std::vector<Corner>& pixels, StereoHypotheses* out)>;
+using DisparityProbe =
+    std::function<Status(const std::vector<Corner>& pixels, StereoHypotheses* out)>;
 
 /// What happened in one update.
 struct FrameReport {
@@ -240,11 +240,12 @@ class LandmarkDatabase {
   double path_m_ = 0.0;
   double turn_rad_ = 0.0;
   std::vector<Prediction> predictions_;
-  std::vector<uint8_t> visible_;     // per slot, this frame
-  std::vector<uint8_t> associated_;  // per slot, this frame
+  std::vector<uint8_t> visible_;       // per slot, this frame
+  std::vector<uint8_t> associated_;    // per slot, this frame
   std::vector<uint8_t> contradicted_;  // per slot, this frame: the hit disagreed with the anchor
-  std::vector<uint8_t> informative_;   // per slot, this frame: the motion since the anchor exposes depth
-  std::vector<int32_t> hyp_claim_;   // per hypothesis: prediction index, or -1
+  std::vector<uint8_t>
+      informative_;  // per slot, this frame: the motion since the anchor exposes depth
+  std::vector<int32_t> hyp_claim_;  // per hypothesis: prediction index, or -1
   std::vector<float> hyp_claim_d2_;
   std::vector<int32_t> cell_start_;  // per index cell: first index into grid_items_ / grid_uvd_
   std::vector<int32_t> grid_items_;  // hypothesis indices in cell order

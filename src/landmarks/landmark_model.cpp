@@ -26,9 +26,10 @@ MeasurementSigma predictionSigma(const LandmarkOptions& options,
                                  double turn_rad) {
   const double s = std::max(0.0, path_m);
   const double th = std::abs(turn_rad);
-  const double sigma_t = options.odom_trans_sigma_per_sqrt_m * std::sqrt(s) + options.odom_trans_scale_sigma * s;
-  const double sigma_yaw = options.odom_rot_sigma_per_sqrt_rad * std::sqrt(th) + options.odom_rot_scale_sigma * th +
-                           options.odom_rot_sigma_per_m * s;
+  const double sigma_t =
+      options.odom_trans_sigma_per_sqrt_m * std::sqrt(s) + options.odom_trans_scale_sigma * s;
+  const double sigma_yaw = options.odom_rot_sigma_per_sqrt_rad * std::sqrt(th) +
+                           options.odom_rot_scale_sigma * th + options.odom_rot_sigma_per_m * s;
   const double t_over_z = sigma_t / std::max(z_m, 1e-3);
   const double du_t = (rig.fx_px + std::abs(uvd.x() - rig.cx_px)) * t_over_z;
   const double du_r = rig.fx_px * sigma_yaw;
@@ -75,9 +76,10 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   const double z = fb / nominal.z();
   const double s = std::max(0.0, path_m);
   const double th = std::abs(turn_rad);
-  const double sigma_t = options.odom_trans_sigma_per_sqrt_m * std::sqrt(s) + options.odom_trans_scale_sigma * s;
-  const double sigma_yaw = options.odom_rot_sigma_per_sqrt_rad * std::sqrt(th) + options.odom_rot_scale_sigma * th +
-                           options.odom_rot_sigma_per_m * s;
+  const double sigma_t =
+      options.odom_trans_sigma_per_sqrt_m * std::sqrt(s) + options.odom_trans_scale_sigma * s;
+  const double sigma_yaw = options.odom_rot_sigma_per_sqrt_rad * std::sqrt(th) +
+                           options.odom_rot_scale_sigma * th + options.odom_rot_sigma_per_m * s;
   // Anchor disparity noise, propagated by re-projecting the ray at d +- sigma.
   Eigen::Vector3d plus, minus;
   double var_u_anchor = 0.0;
@@ -93,10 +95,12 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   }
   const double z_ratio = (fb / anchor_d_px) / z;  // anchor pixel noise scales with z_anchor / z
   const double px2 = options.pixel_sigma_px * options.pixel_sigma_px;
-  const double dv_odo = std::abs(nominal.y() - rig.cy_px) * (sigma_t / z + std::abs(x_over_z) * sigma_yaw);
+  const double dv_odo =
+      std::abs(nominal.y() - rig.cy_px) * (sigma_t / z + std::abs(x_over_z) * sigma_yaw);
   const double dd_odo = nominal.z() * (sigma_t / z + std::abs(x_over_z) * sigma_yaw);
   const double var_v = px2 + px2 * z_ratio * z_ratio + var_v_anchor + dv_odo * dv_odo;
-  const double var_d = options.disparity_sigma_px * options.disparity_sigma_px + var_d_anchor + dd_odo * dd_odo;
+  const double var_d =
+      options.disparity_sigma_px * options.disparity_sigma_px + var_d_anchor + dd_odo * dd_odo;
   // Columns: a heading error shifts them all by fx sigma_yaw, a translation error across the
   // optical axis by fx sigma_t / z and one along it scales the offset from cx (as in the gate).
   const bool use_u = options.anchor_check_columns;
@@ -125,16 +129,19 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
     const double dd = d - a.z();
     return dv * dv / var_v + dd * dd / var_d + (use_u ? du * du / var_u : 0.0);
   };
-  const double offset = std::max(options.verify_min_offset_px, options.verify_relative_offset * anchor_d_px);
+  const double offset =
+      std::max(options.verify_min_offset_px, options.verify_relative_offset * anchor_d_px);
   const double generic[2] = {anchor_d_px - offset, anchor_d_px + offset};
   bool discriminative = true;
   for (int k = 0; k < 2; ++k) {
     out.phantom_llr[k] = kPhantomImpossible;
     Eigen::Vector3d p;
     if (phantom(generic[k], &p)) {
-      if (m2_from(p, nominal.x(), nominal.y(), nominal.z()) < options.verify_chi2) discriminative = false;
+      if (m2_from(p, nominal.x(), nominal.y(), nominal.z()) < options.verify_chi2)
+        discriminative = false;
       // The observation under the phantom hypothesis against under the candidate's.
-      if (phantom_d_px == nullptr) out.phantom_llr[k] = 0.5 * (m2_from(p, u_px, v_px, d_px) - out.mahalanobis2);
+      if (phantom_d_px == nullptr)
+        out.phantom_llr[k] = 0.5 * (m2_from(p, u_px, v_px, d_px) - out.mahalanobis2);
     }
     if (phantom_d_px != nullptr && phantom_d_px[k] > 0.0f && phantom(phantom_d_px[k], &p)) {
       out.phantom_llr[k] = 0.5 * (m2_from(p, u_px, v_px, d_px) - out.mahalanobis2);
@@ -171,7 +178,9 @@ void normaliseRivals(const double* prior,
   for (int i = 0; i < n; ++i) probability[i] = denom > 0.0 ? probability[i] / denom : 0.0;
 }
 
-double parallaxAngle(const Eigen::Vector3d& p, const Eigen::Vector3d& c1, const Eigen::Vector3d& c2) {
+double parallaxAngle(const Eigen::Vector3d& p,
+                     const Eigen::Vector3d& c1,
+                     const Eigen::Vector3d& c2) {
   const Eigen::Vector3d r1 = c1 - p;
   const Eigen::Vector3d r2 = c2 - p;
   const double n1 = r1.norm();
@@ -198,7 +207,8 @@ bool updateSvoSeed(double x, double tau2, SvoSeed* seed) {
   const double e = c1 * (seed->a + 1.0) * (seed->a + 2.0) / ((ab + 1.0) * (ab + 2.0)) +
                    c2 * seed->a * (seed->a + 1.0) / ((ab + 1.0) * (ab + 2.0));
   const double mu_new = c1 * m + c2 * seed->mu;
-  const double sigma2_new = c1 * (s2 + m * m) + c2 * (seed->sigma2 + seed->mu * seed->mu) - mu_new * mu_new;
+  const double sigma2_new =
+      c1 * (s2 + m * m) + c2 * (seed->sigma2 + seed->mu * seed->mu) - mu_new * mu_new;
   const double denom = f - e / f;
   if (!(sigma2_new > 0.0) || !(std::abs(denom) > 1e-12) || !(f > 0.0)) return false;
   const double a_new = (e - f) / denom;

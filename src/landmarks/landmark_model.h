@@ -114,7 +114,9 @@ void normaliseRivals(const double* prior,
                      double* probability);
 
 /// Angle [rad] at point p between the rays from camera centres c1 and c2 (0 when degenerate).
-double parallaxAngle(const Eigen::Vector3d& p, const Eigen::Vector3d& c1, const Eigen::Vector3d& c2);
+double parallaxAngle(const Eigen::Vector3d& p,
+                     const Eigen::Vector3d& c1,
+                     const Eigen::Vector3d& c2);
 
 /// SVO's depth filter (Vogiatzis and Hernandez 2011; Forster et al. 2014): a Gaussian x Beta
 /// posterior over the inverse depth mu (variance sigma2) and the inlier ratio Beta(a, b), updated

@@ -29,7 +29,8 @@ const std::vector<Policy>& allPolicies();
 struct LandmarkOptions {
   Policy policy = Policy::kConsistency;
 
-  // ---- Odometry noise model for gating (same form as the simulator's wheel model) ----------------
+  // ---- Odometry noise model for gating (same form as the simulator's wheel model)
+  // ----------------
   /// Random translation error [m / sqrt(m)] of the distance driven since a landmark was last seen.
   /// Default 0.03: 1.5x the office world's 0.02, because the database does not know the robot's
   /// true noise and a gate that is too narrow loses real landmarks.
@@ -44,7 +45,8 @@ struct LandmarkOptions {
   /// radii make the robot curve slightly. Not in the simulated model; 2 mrad/m is typical.
   double odom_rot_sigma_per_m = 0.002;
 
-  // ---- Stereo / pixel noise ----------------------------------------------------------------------
+  // ---- Stereo / pixel noise
+  // ----------------------------------------------------------------------
   /// Corner localisation noise [px] (Harris at integer pixels: uniform +-0.5 has sigma 0.29;
   /// 0.5 also covers rig vibration).
   double pixel_sigma_px = 0.5;
@@ -62,7 +64,8 @@ struct LandmarkOptions {
   double min_disparity_px = 0.0;
   double max_disparity_px = 63.0;
 
-  // ---- consistency policy (docs/landmarks.md) ----------------------------------------------------
+  // ---- consistency policy (docs/landmarks.md)
+  // ----------------------------------------------------
   /// Prior probability that a salient point's hypotheses contain the real match [-]; it is split
   /// among the rivals (LR-consistent ones count double).
   double prior_real = 0.5;
@@ -178,7 +181,8 @@ struct LandmarkOptions {
   /// Candidates whose probability falls below this are pruned [-].
   double prune_prob = 0.02;
 
-  // ---- baselines -----------------------------------------------------------------------------------
+  // ---- baselines
+  // -----------------------------------------------------------------------------------
   /// seen-count: observations needed and the window they must fall into [s] (MRPT CLandmarksMap).
   int seen_count_min = 2;
   double seen_count_window_s = 4.0;
@@ -194,7 +198,8 @@ struct LandmarkOptions {
   /// SVO seeds whose inlier ratio falls below this are dropped.
   double svo_prune_inlier_ratio = 0.1;
 
-  // ---- life cycle ----------------------------------------------------------------------------------
+  // ---- life cycle
+  // ----------------------------------------------------------------------------------
   /// A candidate predicted visible but not associated for this many consecutive frames is
   /// dropped (all policies) [-].
   int max_consecutive_misses = 8;

@@ -1,12 +1,12 @@
 #pragma once
-/// Multi-view triangulation of a confirmed landmark with Ceres (its TinySolver), anchored: the landmark stays on
-/// the ray of its anchor pixel (observations[0]) and its disparity there is estimated from the
-/// disparities of all its observations, each predicted through the odometry poses relative to
-/// the anchor frame, under a Huber loss. Columns and rows are left out on purpose, measured on
-/// the office world (docs/landmarks.md): a heading error of the odometry shifts every column
-/// alike, and rows are a weak depth cue whose corner-localisation bias moved refined depths by
-/// 1-2 px of disparity (precision 91.5 % with rows, 98.6 % without). Keeping the ray fixed
-/// means odometry drift can move the point along its anchor ray only.
+/// Multi-view triangulation of a confirmed landmark with Ceres (its TinySolver), anchored: the
+/// landmark stays on the ray of its anchor pixel (observations[0]) and its disparity there is
+/// estimated from the disparities of all its observations, each predicted through the odometry
+/// poses relative to the anchor frame, under a Huber loss. Columns and rows are left out on
+/// purpose, measured on the office world (docs/landmarks.md): a heading error of the odometry
+/// shifts every column alike, and rows are a weak depth cue whose corner-localisation bias moved
+/// refined depths by 1-2 px of disparity (precision 91.5 % with rows, 98.6 % without). Keeping the
+/// ray fixed means odometry drift can move the point along its anchor ray only.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

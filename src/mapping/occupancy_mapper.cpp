@@ -51,7 +51,9 @@ constexpr uint64_t kHitFlag = 1U;
 /// hit flag), five passes of 11 bits, the buffers reused from frame to frame. The same order as
 /// std::sort (equal updates are equal values), so the same map (tested byte for byte against
 /// OctoMap's own updates); faster for the thousands of updates of a frame (docs/mapping.md).
-void radixSortUpdates(std::vector<uint64_t>* v, std::vector<uint64_t>* scratch, std::vector<uint32_t>* histograms) {
+void radixSortUpdates(std::vector<uint64_t>* v,
+                      std::vector<uint64_t>* scratch,
+                      std::vector<uint32_t>* histograms) {
   constexpr int kBits = 11;
   constexpr int kPasses = 5;  // 55 >= 49 bits
   constexpr size_t kBuckets = size_t{1} << kBits;
@@ -61,13 +63,15 @@ void radixSortUpdates(std::vector<uint64_t>* v, std::vector<uint64_t>* scratch, 
   std::vector<uint32_t>& counts = *histograms;
   counts.assign(kBuckets * kPasses, 0);
   for (const uint64_t x : *v) {
-    for (int p = 0; p < kPasses; ++p) ++counts[p * kBuckets + ((x >> (p * kBits)) & (kBuckets - 1))];
+    for (int p = 0; p < kPasses; ++p)
+      ++counts[p * kBuckets + ((x >> (p * kBits)) & (kBuckets - 1))];
   }
   uint64_t* src = v->data();
   uint64_t* dst = scratch->data();
   for (int p = 0; p < kPasses; ++p) {
     uint32_t* c = counts.data() + p * kBuckets;
-    if (c[(src[0] >> (p * kBits)) & (kBuckets - 1)] == n) continue;  // one digit value: nothing to do
+    if (c[(src[0] >> (p * kBits)) & (kBuckets - 1)] == n)
+      continue;  // one digit value: nothing to do
     uint32_t sum = 0;
     for (size_t b = 0; b < kBuckets; ++b) {
       const uint32_t count = c[b];

@@ -1,7 +1,5 @@
 #include "pipeline/config.h"
 
-#include "yaml/yaml_text.h"
-
 #include <mrpt/containers/yaml.h>
 
 #include <algorithm>
@@ -22,13 +20,15 @@
 #include <utility>
 #include <vector>
 
+#include "yaml/yaml_text.h"
+
 namespace twocam::pipeline {
 
 frontend::FrontendOptions pipelineFrontendDefaults() {
   frontend::FrontendOptions options;
   options.harris.target_count = 2500;
-  options.harris.max_corners = 5000;  // 2x the target, as in HarrisOptions
-  options.sad.row_support = true;     // the consistency policy's confirmation reads it
+  options.harris.max_corners = 5000;     // 2x the target, as in HarrisOptions
+  options.sad.row_support = true;        // the consistency policy's confirmation reads it
   options.sad.birchfield_tomasi = true;  // sampling-insensitive: docs/frontend.md
   return options;
 }
@@ -116,7 +116,9 @@ void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(row_tolerance_px, "right rows v-m..v+m are searched too [px], in [0, 8]");
   TWOCAM_CONFIG_KEY(max_hypotheses, "rival hypotheses kept per point [-], in [1, 255]");
   TWOCAM_CONFIG_KEY(cost_ratio, "keep minima costing <= cost_ratio * best cost [-], >= 1");
-  TWOCAM_CONFIG_KEY(complete_cost_ratio, "an unlisted minimum within this x best that continues the list's period makes it incomplete [-], >= cost_ratio");
+  TWOCAM_CONFIG_KEY(complete_cost_ratio,
+                    "an unlisted minimum within this x best that continues the list's period makes "
+                    "it incomplete [-], >= cost_ratio");
   TWOCAM_CONFIG_KEY(min_separation_px, "distinct minima at least this far apart [px], >= 1");
   TWOCAM_CONFIG_KEY(lr_tolerance_px, "right-to-left check tolerance [px], >= 0");
   TWOCAM_CONFIG_KEY(lr_check, "run the right-to-left check [bool]");
@@ -125,8 +127,9 @@ void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(shiftable_windows,
                     "also match windows ending and starting at the corner [bool]");
   TWOCAM_CONFIG_KEY(zero_mean, "zero-mean SAD, robust to a brightness offset [bool]");
-  TWOCAM_CONFIG_KEY(birchfield_tomasi,
-                    "sampling-insensitive cost: distance to the right pixel's half-pixel interval [bool]");
+  TWOCAM_CONFIG_KEY(
+      birchfield_tomasi,
+      "sampling-insensitive cost: distance to the right pixel's half-pixel interval [bool]");
   TWOCAM_CONFIG_KEY(kernel, "SAD implementation, identical results: auto | scalar | sse2 | avx2");
   TWOCAM_CONFIG_KEY(row_support, "match each hypothesis on the rows above and below too [bool]");
   TWOCAM_CONFIG_KEY(row_support_radius_px,
@@ -179,11 +182,14 @@ void visitLandmarks(O& o, V& v) {
   TWOCAM_CONFIG_KEY(verify_min_offset_px, "phantom disparity offset, absolute part [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
   TWOCAM_CONFIG_KEY(verify_llr, "evidence against the phantoms needed to confirm [nats], >= 0");
-  TWOCAM_CONFIG_KEY(verify_own_rivals, "complete hypothesis lists: phantoms at the rivals' disparities [bool]");
-  TWOCAM_CONFIG_KEY(same_answer_px, "hypotheses of a corner this near each other are one answer [px], >= 0");
+  TWOCAM_CONFIG_KEY(verify_own_rivals,
+                    "complete hypothesis lists: phantoms at the rivals' disparities [bool]");
+  TWOCAM_CONFIG_KEY(same_answer_px,
+                    "hypotheses of a corner this near each other are one answer [px], >= 0");
   TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
   TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
-  TWOCAM_CONFIG_KEY(min_parallax_deg, "consistency: viewpoint change needed to confirm [deg], in [0, 90)");
+  TWOCAM_CONFIG_KEY(min_parallax_deg,
+                    "consistency: viewpoint change needed to confirm [deg], in [0, 90)");
   TWOCAM_CONFIG_KEY(prune_prob,
                     "candidates below this probability are pruned [-], in [0, confirm_prob)");
   TWOCAM_CONFIG_KEY(seen_count_min, "seen-count: observations needed [-], >= 1");
@@ -215,9 +221,11 @@ void visitLandmarks(O& o, V& v) {
                     "confirm only if at most this fraction of observations lacked row support [-]");
   TWOCAM_CONFIG_KEY(refine_huber, "Huber loss scale of the refinement [sigma], > 0");
   TWOCAM_CONFIG_KEY(unambiguous_confirmed_hits,
-                    "consistency: a confirmed landmark with several corners in its gate is not associated [bool]");
+                    "consistency: a confirmed landmark with several corners in its gate is not "
+                    "associated [bool]");
   TWOCAM_CONFIG_KEY(probe_unseen,
-                    "consistency: re-measure an unassociated candidate at its predicted pixel; one answer in its gate is not a miss [bool]");
+                    "consistency: re-measure an unassociated candidate at its predicted pixel; one "
+                    "answer in its gate is not a miss [bool]");
 }
 
 template <typename O, typename V>

@@ -44,11 +44,15 @@ Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out
   return s;
 }
 
-Status Pipeline::process(int32_t frame, const StereoFrame& stereo, const Pose2& odom_pose, FrameOutput* out) {
+Status Pipeline::process(int32_t frame,
+                         const StereoFrame& stereo,
+                         const Pose2& odom_pose,
+                         FrameOutput* out) {
   if (Status s = processFrontendOnly(stereo, out); !s) return s;
   // Candidates whose corner was not detected are re-measured on this frame's images
   // (LandmarkOptions::probe_unseen); replayed hypotheses (processHypotheses) have none.
-  const landmarks::DisparityProbe probe = [this, &stereo](const std::vector<Corner>& pixels, StereoHypotheses* h) {
+  const landmarks::DisparityProbe probe = [this, &stereo](const std::vector<Corner>& pixels,
+                                                          StereoHypotheses* h) {
     return frontend_.measureAt(stereo, pixels, h);
   };
   return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out, &probe);
@@ -89,7 +93,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   for (int32_t slot : report_.hypothesis_landmark) {
     if (slot < 0) continue;
     const landmarks::Landmark& l = slots[static_cast<size_t>(slot)];
-    if (l.state != landmarks::LandmarkState::kConfirmed || slot_mapped_[static_cast<size_t>(slot)]) continue;
+    if (l.state != landmarks::LandmarkState::kConfirmed || slot_mapped_[static_cast<size_t>(slot)])
+      continue;
     slot_mapped_[static_cast<size_t>(slot)] = 1;
     out->mapped_points_w.push_back(l.p_w);
     out->mapped_slots.push_back(static_cast<uint32_t>(slot));
@@ -99,7 +104,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   }
   out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
   octomap::OcTreeKey origin_key;
-  const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()), static_cast<float>(out->camera_origin_w.y()),
+  const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()),
+                                static_cast<float>(out->camera_origin_w.y()),
                                 static_cast<float>(out->camera_origin_w.z()));
   out->outside_map = !mapper_.tree().coordToKeyChecked(origin, origin_key);
   if (!out->outside_map) mapper_.insertFrame(out->camera_origin_w, out->mapped_points_w);

@@ -3,10 +3,9 @@
 /// SAD hypotheses) -> landmark database -> occupancy map of the confirmed landmarks seen in the
 /// frame. State only; each stage's maths live in its module.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "common/features.h"
 #include "common/frames.h"
@@ -52,7 +51,10 @@ class Pipeline {
   /// One stereo frame with its odometry pose. An error from the landmark database (NaN pose,
   /// time going backwards) leaves the database and map unchanged: the caller may skip the frame
   /// and go on. A frontend error (image of the wrong size) is returned as well.
-  Status process(int32_t frame, const StereoFrame& stereo, const Pose2& odom_pose, FrameOutput* out);
+  Status process(int32_t frame,
+                 const StereoFrame& stereo,
+                 const Pose2& odom_pose,
+                 FrameOutput* out);
 
   /// Frontend only (a log without odometry): corners and hypotheses, no landmarks, no map.
   Status processFrontendOnly(const StereoFrame& stereo, FrameOutput* out);
@@ -79,11 +81,11 @@ class Pipeline {
 
  private:
   Status landmarksAndMap(int32_t frame,
-                        int64_t t_ns,
-                        const Pose2& odom_pose,
-                        const StereoHypotheses& hyps,
-                        FrameOutput* out,
-                        const landmarks::DisparityProbe* probe);
+                         int64_t t_ns,
+                         const Pose2& odom_pose,
+                         const StereoHypotheses& hyps,
+                         FrameOutput* out,
+                         const landmarks::DisparityProbe* probe);
 
   StereoRig rig_;
   frontend::Frontend frontend_;

@@ -1,10 +1,5 @@
 #include "sim/renderer.h"
 
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <limits>
-
 #include <mrpt/img/CImage.h>
 #include <mrpt/img/TCamera.h>
 #include <mrpt/math/CMatrixDynamic.h>
@@ -12,6 +7,11 @@
 #include <mrpt/opengl/COpenGLScene.h>
 #include <mrpt/opengl/CSetOfTexturedTriangles.h>
 #include <mrpt/poses/CPose3D.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 namespace twocam::sim {
@@ -34,7 +34,8 @@ int nextPow2(int x) {
 mrpt::img::CImage toMrptTexture(const ImageU8& tex) {
   const cv::Mat grey(tex.height, tex.width, CV_8UC1, const_cast<uint8_t*>(tex.data.data()));
   cv::Mat resized;
-  cv::resize(grey, resized, cv::Size(nextPow2(tex.width), nextPow2(tex.height)), 0, 0, cv::INTER_LINEAR);
+  cv::resize(
+      grey, resized, cv::Size(nextPow2(tex.width), nextPow2(tex.height)), 0, 0, cv::INTER_LINEAR);
   cv::Mat bgr;
   cv::cvtColor(resized, bgr, cv::COLOR_GRAY2BGR);
   return mrpt::img::CImage(bgr, mrpt::img::DEEP_COPY);
@@ -53,7 +54,8 @@ mrpt::opengl::TTriangle makeTriangle(const Eigen::Vector3d& a,
   mrpt::opengl::TTriangle t(toF(a), toF(b), toF(c));
   const Eigen::Vector2d* uv[3] = {&ta, &tb, &tc};
   for (int i = 0; i < 3; ++i) {
-    t.vertices[i].uv = mrpt::math::TVector2Df(static_cast<float>(uv[i]->x()), static_cast<float>(uv[i]->y()));
+    t.vertices[i].uv =
+        mrpt::math::TVector2Df(static_cast<float>(uv[i]->x()), static_cast<float>(uv[i]->y()));
     t.vertices[i].setColor(mrpt::img::TColor(255, 255, 255, 255));
   }
   return t;
@@ -107,8 +109,9 @@ struct StereoRenderer::Impl {
       far = std::max(far, (corner - T_w_c.translation()).norm());
     }
     far += options.clip_far_margin_m;
-    scene->getViewport()->setViewportClipDistances(static_cast<float>(options.clip_near_m),
-                                                   static_cast<float>(std::max(far, options.clip_near_m * 2)));
+    scene->getViewport()->setViewportClipDistances(
+        static_cast<float>(options.clip_near_m),
+        static_cast<float>(std::max(far, options.clip_near_m * 2)));
   }
 
   void renderGrey(const Eigen::Isometry3d& T_w_c, ImageU8* grey, bool with_depth) {
@@ -148,7 +151,8 @@ Status StereoRenderer::create(const World& world,
                                            static_cast<unsigned>(world.rig.height_px));
     impl->fbo = std::make_unique<mrpt::opengl::CFBORender>(p);
   } catch (const std::exception& e) {
-    return Status::error(std::string("cannot create an offscreen EGL rendering context: ") + e.what());
+    return Status::error(std::string("cannot create an offscreen EGL rendering context: ") +
+                         e.what());
   }
   impl->scene = mrpt::opengl::COpenGLScene::Create();
   const float bg = static_cast<float>(world.background_grey / 255.0);
@@ -162,7 +166,8 @@ Status StereoRenderer::create(const World& world,
       obj->insertTriangle(makeTriangle(f.p0, f.p0 + f.e1, f.p0 + f.e2, f.uv0, f.uv1, f.uv2));
       if (!f.triangle) {
         const Eigen::Vector2d uv3 = f.uv1 + f.uv2 - f.uv0;
-        obj->insertTriangle(makeTriangle(f.p0 + f.e1, f.p0 + f.e1 + f.e2, f.p0 + f.e2, f.uv1, uv3, f.uv2));
+        obj->insertTriangle(
+            makeTriangle(f.p0 + f.e1, f.p0 + f.e1 + f.e2, f.p0 + f.e2, f.uv1, uv3, f.uv2));
       }
       all.push_back(f);
     }
@@ -174,7 +179,9 @@ Status StereoRenderer::create(const World& world,
   return Status::ok();
 }
 
-void StereoRenderer::renderView(const Eigen::Isometry3d& T_w_c, ImageU8* grey, ImageF32* rendered_depth) {
+void StereoRenderer::renderView(const Eigen::Isometry3d& T_w_c,
+                                ImageU8* grey,
+                                ImageF32* rendered_depth) {
   impl_->renderGrey(T_w_c, grey, rendered_depth != nullptr);
   if (rendered_depth != nullptr) {
     const int w = impl_->rig.width_px, h = impl_->rig.height_px;
@@ -250,8 +257,8 @@ void StereoRenderer::render(const Eigen::Isometry3d& T_w_cl,
   const Eigen::Isometry3d T_c_w = T_w_cl.inverse();
   for (size_t i = 0; i < facets_.size(); ++i) {
     const Facet& f = facets_[i];
-    const Eigen::Vector3d c[4] = {T_c_w * f.p0, T_c_w * (f.p0 + f.e1), T_c_w * (f.p0 + f.e2),
-                                  T_c_w * (f.p0 + f.e1 + f.e2)};
+    const Eigen::Vector3d c[4] = {
+        T_c_w * f.p0, T_c_w * (f.p0 + f.e1), T_c_w * (f.p0 + f.e2), T_c_w * (f.p0 + f.e1 + f.e2)};
     const int n = f.triangle ? 3 : 4;
     bool any_front = false;
     for (int k = 0; k < n; ++k) any_front |= c[k].z() > near_m * 0.5;
@@ -319,7 +326,8 @@ double analyticDepth(const std::vector<Facet>& facets,
                      double u,
                      double v) {
   const Eigen::Vector3d dir =
-      T_w_c.linear() * Eigen::Vector3d((u - rig.cx_px) / rig.fx_px, (v - rig.cy_px) / rig.fy_px, 1.0);
+      T_w_c.linear() *
+      Eigen::Vector3d((u - rig.cx_px) / rig.fx_px, (v - rig.cy_px) / rig.fy_px, 1.0);
   double best = std::numeric_limits<double>::infinity();
   for (const Facet& f : facets) {
     const double t = intersectFacet(f, T_w_c.translation(), dir);

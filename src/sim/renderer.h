@@ -9,10 +9,9 @@
 /// only tells which facet a pixel sees; the depth stored is the analytic intersection of the
 /// pixel's ray with that facet, in double precision (docs/simulator.md, "Ground-truth depth").
 
+#include <Eigen/Geometry>
 #include <memory>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "common/image.h"
 #include "common/status.h"

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/core.hpp>
 
 #include "common/random.h"
@@ -33,13 +32,16 @@ Simulator::Simulator(World world, std::unique_ptr<StereoRenderer> renderer)
       renderer_(std::move(renderer)),
       motion_(world_.robot, world_.odometry_noise, world_.seed, kStartTimeNs) {}
 
-Status Simulator::create(const World& world, const RendererOptions& options, std::unique_ptr<Simulator>* out) {
+Status Simulator::create(const World& world,
+                         const RendererOptions& options,
+                         std::unique_ptr<Simulator>* out) {
   if (Status st = world.validate(); !st) return st;
   std::mt19937_64 texture_rng = makeRng(world.seed, RandomStream::kTextures);
   std::vector<TexturedMesh> meshes;
   if (Status st = buildMeshes(world, texture_rng, &meshes); !st) return st;
   std::unique_ptr<StereoRenderer> renderer;
-  if (Status st = StereoRenderer::create(world, std::move(meshes), options, &renderer); !st) return st;
+  if (Status st = StereoRenderer::create(world, std::move(meshes), options, &renderer); !st)
+    return st;
   out->reset(new Simulator(world, std::move(renderer)));
   return Status::ok();
 }
@@ -53,12 +55,21 @@ void Simulator::next(SimFrame* frame) {
   frame->ground_truth.t_ns = m.t_ns;
   frame->ground_truth.T_w_b = toIsometry(m.true_pose);
   const Eigen::Isometry3d T_w_cl = frame->ground_truth.T_w_b * world_.rig.T_b_cl;
-  renderer_->render(T_w_cl, &clean_left_, &clean_right_, &frame->ground_truth.depth_left, &frame->render_stats);
+  renderer_->render(
+      T_w_cl, &clean_left_, &clean_right_, &frame->ground_truth.depth_left, &frame->render_stats);
   // One noise seed per frame and camera from the image-noise stream.
-  std::mt19937_64 rng = makeRng(world_.seed, RandomStream::kImageNoise, static_cast<uint64_t>(frame_index_));
+  std::mt19937_64 rng =
+      makeRng(world_.seed, RandomStream::kImageNoise, static_cast<uint64_t>(frame_index_));
   const uint64_t seed_left = rng(), seed_right = rng();
-  applyImageNoise(clean_left_, world_.image_noise.left, world_.image_noise.sigma_grey, seed_left, &frame->stereo.left);
-  applyImageNoise(clean_right_, world_.image_noise.right, world_.image_noise.sigma_grey, seed_right,
+  applyImageNoise(clean_left_,
+                  world_.image_noise.left,
+                  world_.image_noise.sigma_grey,
+                  seed_left,
+                  &frame->stereo.left);
+  applyImageNoise(clean_right_,
+                  world_.image_noise.right,
+                  world_.image_noise.sigma_grey,
+                  seed_right,
                   &frame->stereo.right);
   ++frame_index_;
 }

@@ -39,7 +39,9 @@ void applyImageNoise(const ImageU8& clean,
 class Simulator {
  public:
   /// Tessellates the world, rasterises its textures and opens the renderer.
-  static Status create(const World& world, const RendererOptions& options, std::unique_ptr<Simulator>* out);
+  static Status create(const World& world,
+                       const RendererOptions& options,
+                       std::unique_ptr<Simulator>* out);
 
   /// Simulates the next frame (0, 1, 2, ...).
   void next(SimFrame* frame);

@@ -119,7 +119,9 @@ Status buildMeshes(const World& world, std::mt19937_64& rng, std::vector<Texture
           st = rasterizeTexture(s.texture, 2.0 * r, 2.0 * r, rng, &m.texture);
           if (!st) break;
           const Eigen::Vector3d c = t + (cap == 0 ? 0.0 : height) * ez;
-          auto uvOf = [&](double x, double y) { return Eigen::Vector2d(0.5 + 0.5 * x / r, 0.5 + 0.5 * y / r); };
+          auto uvOf = [&](double x, double y) {
+            return Eigen::Vector2d(0.5 + 0.5 * x / r, 0.5 + 0.5 * y / r);
+          };
           for (int k = 0; k < n; ++k) {
             const double a0 = 2.0 * M_PI * k / n, a1 = 2.0 * M_PI * (k + 1) / n;
             const double x0 = r * std::cos(a0), y0 = r * std::sin(a0);

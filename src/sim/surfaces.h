@@ -3,10 +3,9 @@
 /// truth is computed from. Cylinders become prisms with many sides, so rendered images and
 /// analytic depth describe the same surface.
 
+#include <Eigen/Core>
 #include <random>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "common/image.h"
 #include "common/status.h"
@@ -43,6 +42,8 @@ Status buildMeshes(const World& world, std::mt19937_64& rng, std::vector<Texture
 
 /// Distance along the ray origin + t * dir (t > 0) at which it hits the facet, or a negative
 /// value when it misses. dir need not be normalised; t is in units of |dir|.
-double intersectFacet(const Facet& facet, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir);
+double intersectFacet(const Facet& facet,
+                      const Eigen::Vector3d& origin,
+                      const Eigen::Vector3d& dir);
 
 }  // namespace twocam::sim

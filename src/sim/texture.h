@@ -17,10 +17,7 @@ constexpr int kMaxTextureSidePx = 4096;
 /// spec.texels_per_m, reduced if a side would exceed kMaxTextureSidePx.
 /// Random textures draw from rng only. Image textures are tiled with tile width spec.scale_m
 /// (height from the image's aspect ratio); an unreadable image file is an error.
-Status rasterizeTexture(const TextureSpec& spec,
-                        double width_m,
-                        double height_m,
-                        std::mt19937_64& rng,
-                        ImageU8* out);
+Status rasterizeTexture(
+    const TextureSpec& spec, double width_m, double height_m, std::mt19937_64& rng, ImageU8* out);
 
 }  // namespace twocam::sim

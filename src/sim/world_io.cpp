@@ -1,7 +1,5 @@
 #include "sim/world_io.h"
 
-#include "yaml/yaml_text.h"
-
 #include <mrpt/containers/yaml.h>
 
 #include <algorithm>
@@ -19,6 +17,8 @@
 #include <stdexcept>
 #include <utility>
 #include <vector>
+
+#include "yaml/yaml_text.h"
 
 namespace twocam::sim {
 

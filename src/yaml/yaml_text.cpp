@@ -63,7 +63,8 @@ std::string syntaxError(const std::string& diagnostics) {
     const size_t c = where.rfind(':');
     const size_t l = c == std::string::npos || c == 0 ? std::string::npos : where.rfind(':', c - 1);
     if (l == std::string::npos) return what;
-    return "line " + where.substr(l + 1, c - l - 1) + ", column " + where.substr(c + 1) + ": " + what;
+    return "line " + where.substr(l + 1, c - l - 1) + ", column " + where.substr(c + 1) + ": " +
+           what;
   }
   return {};
 }
@@ -75,7 +76,8 @@ std::string mrptMessage(const std::exception& e) {
   // MRPT 2.5's wording for "key:" with nothing after it (e.g. a section whose keys are all
   // commented out), which carries no position.
   if (s.find("empty scalar") != std::string::npos) {
-    return "a key has no value; write a value, or remove the key (or the section, if all its keys are "
+    return "a key has no value; write a value, or remove the key (or the section, if all its keys "
+           "are "
            "commented out)";
   }
   const size_t at = s.find("Message:");

@@ -4,12 +4,12 @@
 /// for unknown keys. The schemas (which keys exist, their types) stay with their readers:
 /// sim/world_io.cpp for world files, pipeline/config.cpp for the run config.
 
+#include <mrpt/containers/yaml.h>
+
 #include <cstddef>
 #include <exception>
 #include <optional>
 #include <string>
-
-#include <mrpt/containers/yaml.h>
 
 namespace twocam::yaml {
 

@@ -4,7 +4,6 @@
 /// built once outside the timed loops so every benchmark times the same pixels.
 
 #include <cstdint>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 

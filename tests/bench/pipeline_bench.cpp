@@ -22,11 +22,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
-#include <string>
-#include <vector>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
 
 #include "frontend/cv_interop.h"
 #include "io/rawlog.h"
@@ -50,7 +49,9 @@ const RecordedLog& recordedLog() {
     l.path = env ? env : "out/office.rawlog";
     std::error_code ec;
     if (!std::filesystem::exists(l.path, ec)) {
-      l.error = l.path + " not found: set TWOCAM_BENCH_LOG to a rawlog with odometry (e.g. from scripts/run_demo.sh)";
+      l.error = l.path +
+                " not found: set TWOCAM_BENCH_LOG to a rawlog with odometry (e.g. from "
+                "scripts/run_demo.sh)";
       return l;
     }
     std::unique_ptr<io::RawlogReader> reader;
@@ -81,7 +82,8 @@ Status loadBenchConfig(pipeline::PipelineConfig* config) {
 
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
+  const size_t k =
+      std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return v[k];
 }
@@ -140,8 +142,9 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
 
 /// The same landmarks + mapping stages fed by the OpenCV way of getting corners and depth:
 /// goodFeaturesToTrack (Harris, as many corners as the pipeline's harris.target_count) and a
-/// dense StereoBM (11x11, 64 disparities) read at the corners, one hypothesis per corner. Reference for the
-/// frontend's share of the frame budget, not a like-for-like rival (one hypothesis, no rivals).
+/// dense StereoBM (11x11, 64 disparities) read at the corners, one hypothesis per corner. Reference
+/// for the frontend's share of the frame budget, not a like-for-like rival (one hypothesis, no
+/// rivals).
 void BM_PipelineOpenCVFrontend(benchmark::State& state) {
   const RecordedLog& log = recordedLog();
   if (!log.error.empty()) {
@@ -171,7 +174,8 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
     for (const io::LogFrame& f : log.frames) {
       const auto t0 = std::chrono::steady_clock::now();
       const cv::Mat left = frontend::asMat(f.stereo.left);
-      cv::goodFeaturesToTrack(left, corners, max_corners, 0.01, 1.0, cv::noArray(), 3, 3, true, 0.04);
+      cv::goodFeaturesToTrack(
+          left, corners, max_corners, 0.01, 1.0, cv::noArray(), 3, 3, true, 0.04);
       bm->compute(left, frontend::asMat(f.stereo.right), disparity);
       hyps.clear();
       hyps.t_ns = f.stereo.t_ns;
@@ -192,7 +196,8 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
         hyps.points.push_back(p);
         hyps.hypotheses.push_back(h);
       }
-      const double fe_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      const double fe_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       if (!pipe.processHypotheses(f.index, f.stereo.t_ns, f.odometry->pose, hyps, &out)) continue;
       out.times.frontend_ms = fe_ms;
       samples.add(out.times);
@@ -202,8 +207,12 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
   samples.report(state, log);
 }
 
-BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency, "consistency")->Unit(benchmark::kMillisecond)->Iterations(3);
-BENCHMARK_CAPTURE(BM_PipelinePerFrame, wta_lrc, "wta-lrc")->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency, "consistency")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, wta_lrc, "wta-lrc")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
 BENCHMARK(BM_PipelineOpenCVFrontend)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace

@@ -82,7 +82,11 @@ void BM_SalientSadRowSupport(benchmark::State& state) {
       static_cast<double>(out.hypotheses.size()),
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_SalientSadRowSupport)->ArgNames({"rows"})->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SalientSadRowSupport)
+    ->ArgNames({"rows"})
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMicrosecond);
 
 /// measureRowSupport alone on the hypotheses of 2500 corners (matched once, outside the loop).
 void BM_MeasureRowSupport(benchmark::State& state) {

@@ -1,8 +1,8 @@
 #include "common/rig.h"
 
-#include <random>
-
 #include <gtest/gtest.h>
+
+#include <random>
 
 #include "common/random.h"
 
@@ -17,11 +17,13 @@ constexpr int kTrials = 1000;
 TEST(StereoRig, TriangulateInvertsProjectionOverSeededTrials) {
   StereoRig rig;
   std::mt19937_64 rng = makeRng(7, RandomStream::kTextures);
-  std::uniform_real_distribution<double> uu(0.0, rig.width_px - 1.0), vv(0.0, rig.height_px - 1.0), zz(0.3, 80.0);
+  std::uniform_real_distribution<double> uu(0.0, rig.width_px - 1.0), vv(0.0, rig.height_px - 1.0),
+      zz(0.3, 80.0);
   for (int i = 0; i < kTrials; ++i) {
     const double z = zz(rng);
     const Eigen::Vector2d uv(uu(rng), vv(rng));
-    const Eigen::Vector3d p((uv.x() - rig.cx_px) * z / rig.fx_px, (uv.y() - rig.cy_px) * z / rig.fy_px, z);
+    const Eigen::Vector3d p(
+        (uv.x() - rig.cx_px) * z / rig.fx_px, (uv.y() - rig.cy_px) * z / rig.fy_px, z);
     Eigen::Vector2d uv2;
     ASSERT_TRUE(projectLeft(rig, p, &uv2));
     EXPECT_NEAR((uv2 - uv).norm(), 0.0, kRoundTripRelTol * rig.width_px);

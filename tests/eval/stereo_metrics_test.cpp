@@ -240,10 +240,10 @@ TEST(EvaluateSalient, HandBuiltHypothesesGiveHandComputedMetrics) {
 
 TEST(EvaluateSalient, OneAnswerCountsTwinsAsOneAndJudgesTheBest) {
   SalientCase c{flatGroundTruth(20, 10, 6.0f), {}};
-  addPoint(&c.hyps, 5, 5, {{6.4f, 0, true}, {5.6f, 1, true}});   // twins 0.8 px apart, true
-  addPoint(&c.hyps, 6, 5, {{9.0f, 0, true}});                    // lone, 3 px off
-  addPoint(&c.hyps, 7, 5, {{6.0f, 0, true}, {8.5f, 1, false}});  // a rival 2.5 px away
-  addPoint(&c.hyps, 8, 5, {{10.0f, 0, true}, {10.9f, 1, true}}); // twins, both wrong
+  addPoint(&c.hyps, 5, 5, {{6.4f, 0, true}, {5.6f, 1, true}});    // twins 0.8 px apart, true
+  addPoint(&c.hyps, 6, 5, {{9.0f, 0, true}});                     // lone, 3 px off
+  addPoint(&c.hyps, 7, 5, {{6.0f, 0, true}, {8.5f, 1, false}});   // a rival 2.5 px away
+  addPoint(&c.hyps, 8, 5, {{10.0f, 0, true}, {10.9f, 1, true}});  // twins, both wrong
   StereoMetrics m;
   ASSERT_TRUE(evaluateSalient(c.hyps, c.gt, nullptr, StereoEvalOptions{}, &m).isOk());
   EXPECT_NEAR(m.one_answer_fraction, 100.0 * 3 / 4, kPercentTol);

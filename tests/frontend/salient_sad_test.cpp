@@ -221,7 +221,8 @@ TEST(Frontend, MeasureAtMatchesTheGivenPixelsInOrder) {
   options.sad.row_support = true;
   const Frontend frontend(options);
   // The second pixel's window leaves the image: it is skipped, the others keep their order.
-  const std::vector<Corner> pixels = {{200, 40, 0.0f}, {2, 40, 0.0f}, {90, 100, 0.0f}, {150, 60, 0.0f}};
+  const std::vector<Corner> pixels = {
+      {200, 40, 0.0f}, {2, 40, 0.0f}, {90, 100, 0.0f}, {150, 60, 0.0f}};
   StereoHypotheses out;
   ASSERT_TRUE(frontend.measureAt(frame, pixels, &out).isOk());
   EXPECT_EQ(out.t_ns, 42);
@@ -394,9 +395,14 @@ TEST(SalientSad, BirchfieldTomasiKeepsHalfPixelMatchesCheap) {
       }
       best_correct_pct[k] = 100.0 * static_cast<double>(correct) / out.points.size();
     }
-    std::printf("[ bars     ] d = %4.1f  best cost SAD %6.1f, BT %6.1f; best within 1 px: SAD %5.1f %%, "
-                "BT %5.1f %%\n",
-                d, mean_cost[0], mean_cost[1], best_correct_pct[0], best_correct_pct[1]);
+    std::printf(
+        "[ bars     ] d = %4.1f  best cost SAD %6.1f, BT %6.1f; best within 1 px: SAD %5.1f %%, "
+        "BT %5.1f %%\n",
+        d,
+        mean_cost[0],
+        mean_cost[1],
+        best_correct_pct[0],
+        best_correct_pct[1]);
     EXPECT_GE(best_correct_pct[1], best_correct_pct[0]) << "d = " << d;
     if (d == std::round(d)) {
       EXPECT_DOUBLE_EQ(best_correct_pct[1], 100.0);
@@ -410,8 +416,16 @@ TEST(SamplingIntervals, SpanEachPixelAndItsHalfPixelNeighbours) {
   ImageU8 image;
   image.width = 5;
   image.height = 2;
-  image.data = {10, 20, 200, 200, 0,  //
-                7,  7,  7,   7,   7};
+  image.data = {10,
+                20,
+                200,
+                200,
+                0,  //
+                7,
+                7,
+                7,
+                7,
+                7};
   ImageU8 lo;
   ImageU8 hi;
   internal::samplingIntervals(image, &lo, &hi);
@@ -467,8 +481,10 @@ TEST(SalientSad, CompleteFlagsOnlyListsThatHoldEveryCandidate) {
     EXPECT_GE(complete, out.points.size() * 95 / 100);
     // Corners nearer the left edge than the largest disparity: the search is cut short.
     StereoHypotheses border;
-    ASSERT_TRUE(matchSalient(pair.left, pair.right, gridCorners(8, 60, 5, 115, 5), {}, &border).isOk());
-    for (const SalientPoint& p : border.points) EXPECT_FALSE(p.complete) << "corner u = " << p.corner.u_px;
+    ASSERT_TRUE(
+        matchSalient(pair.left, pair.right, gridCorners(8, 60, 5, 115, 5), {}, &border).isOk());
+    for (const SalientPoint& p : border.points)
+      EXPECT_FALSE(p.complete) << "corner u = " << p.corner.u_px;
   }
   // Row 40 of two unrelated textures; the left window of the corner at u = 200 is copied into
   // the right row at disparities 29 and 47 (+2 grey: cost 22) and, 4.5x as dear (+9 grey: cost
@@ -480,11 +496,13 @@ TEST(SalientSad, CompleteFlagsOnlyListsThatHoldEveryCandidate) {
     constexpr int kV = 40;
     for (const auto& [d, add] : {std::pair{29, 2}, std::pair{47, 2}, std::pair{third_d, 9}}) {
       for (int i = -5; i <= 5; ++i) {
-        right.at<uint8_t>(kV, kU - d + i) = cv::saturate_cast<uint8_t>(left.at<uint8_t>(kV, kU + i) + add);
+        right.at<uint8_t>(kV, kU - d + i) =
+            cv::saturate_cast<uint8_t>(left.at<uint8_t>(kV, kU + i) + add);
       }
     }
     StereoHypotheses out;
-    EXPECT_TRUE(matchSalient(toImageU8(left), toImageU8(right), {{kU, kV, 1.0f}}, options, &out).isOk());
+    EXPECT_TRUE(
+        matchSalient(toImageU8(left), toImageU8(right), {{kU, kV, 1.0f}}, options, &out).isOk());
     return out;
   };
   // At 11 the third copy continues the period of 29 and 47: the real disparity may be there.
@@ -609,7 +627,9 @@ TEST(SalientSad, ZeroMeanHandlesGainAndOffset) {
       pct[zero_mean ? 1 : 0] = bestCorrectPct(out, kD);
     }
     std::printf("[ gain/offset ] %s: best within 1 px: plain %.1f %%, zero-mean %.1f %%\n",
-                interval ? "Birchfield-Tomasi" : "SAD", pct[0], pct[1]);
+                interval ? "Birchfield-Tomasi" : "SAD",
+                pct[0],
+                pct[1]);
     EXPECT_GE(pct[1], 99.0) << "interval " << interval;
     EXPECT_LT(pct[0], pct[1] - 10.0) << "interval " << interval;
   }
@@ -691,13 +711,15 @@ TEST(RowSupport, PlaneHasNarrowSpansAndAHorizontalDepthEdgeWideOnes) {
   const StereoPair near = shiftedPair(tex, 320, 120, kNear);
   ImageU8 right = far.right;
   for (int v = kEdgeRow; v < right.height; ++v) {
-    std::copy(near.right.row(v), near.right.row(v) + right.width, right.data.begin() + v * right.width);
+    std::copy(
+        near.right.row(v), near.right.row(v) + right.width, right.data.begin() + v * right.width);
   }
   const std::vector<Corner> corners = gridCorners(80, 300, 0, 120, 3);
   SalientSadOptions options;
   StereoHypotheses out;
   ASSERT_TRUE(matchSalient(far.left, right, corners, options, &out).isOk());
-  for (const DisparityHypothesis& h : out.hypotheses) EXPECT_EQ(h.row_span_px, 0.0f);  // not measured
+  for (const DisparityHypothesis& h : out.hypotheses)
+    EXPECT_EQ(h.row_span_px, 0.0f);  // not measured
   ASSERT_TRUE(measureRowSupport(far.left, right, options, &out).isOk());
   int checked_plane = 0;
   int checked_edge = 0;
@@ -987,8 +1009,8 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
       internal::intervalPrefixCurves(k, win.data(), lo.data(), hi.data(), n, ends, 3, outs);
       for (int e = 0; e < 3; ++e) {
         for (int j = 0; j < n; ++j) {
-          ASSERT_EQ(out[e][j], reference[e][j])
-              << "kernel " << static_cast<int>(k) << " trial " << trial << " end " << e << " j " << j;
+          ASSERT_EQ(out[e][j], reference[e][j]) << "kernel " << static_cast<int>(k) << " trial "
+                                                << trial << " end " << e << " j " << j;
         }
       }
       // A zero-width interval is plain SAD.
@@ -999,8 +1021,14 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
     // Zero-mean: the distance of win[i] + offsets[j] to the interval, on every kernel.
     const int w = 2 * h + 1;
     for (int16_t& o : offsets) o = static_cast<int16_t>(byte(rng) * 2 - 255);
-    internal::intervalCurve(SadKernel::kScalar, win.data(), w, lo.data(), hi.data(),
-                            offsets.data(), n, reference[0].data());
+    internal::intervalCurve(SadKernel::kScalar,
+                            win.data(),
+                            w,
+                            lo.data(),
+                            hi.data(),
+                            offsets.data(),
+                            n,
+                            reference[0].data());
     const int j = (trial * 7) % n;
     int expected = 0;
     for (int i = 0; i < w; ++i) {
@@ -1010,17 +1038,18 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
     ASSERT_EQ(reference[0][j], expected) << "zero-mean, trial " << trial;
     for (SadKernel k : availableKernels()) {
       std::fill(out[0].begin(), out[0].end(), uint16_t{0xFFFF});
-      internal::intervalCurve(k, win.data(), w, lo.data(), hi.data(), offsets.data(), n,
-                              out[0].data());
+      internal::intervalCurve(
+          k, win.data(), w, lo.data(), hi.data(), offsets.data(), n, out[0].data());
       for (int jj = 0; jj < n; ++jj) {
         ASSERT_EQ(out[0][jj], reference[0][jj])
             << "zero-mean, kernel " << static_cast<int>(k) << " trial " << trial << " j " << jj;
       }
       // A zero-width interval is zero-mean SAD.
-      internal::intervalCurve(k, win.data(), w, lo.data(), lo.data(), offsets.data(), n,
-                              out[1].data());
+      internal::intervalCurve(
+          k, win.data(), w, lo.data(), lo.data(), offsets.data(), n, out[1].data());
       internal::sadCurve(k, win.data(), w, lo.data(), offsets.data(), n, sad.data());
-      for (int jj = 0; jj < n; ++jj) ASSERT_EQ(out[1][jj], sad[jj]) << "kernel " << static_cast<int>(k);
+      for (int jj = 0; jj < n; ++jj)
+        ASSERT_EQ(out[1][jj], sad[jj]) << "kernel " << static_cast<int>(k);
     }
   }
 }

@@ -3,16 +3,6 @@
 // logs (missing, truncated, garbage, inconsistent calibration, missing images).
 
 #include <gtest/gtest.h>
-
-#include <cmath>
-#include <filesystem>
-#include <functional>
-#include <fstream>
-#include <memory>
-#include <random>
-#include <string>
-#include <vector>
-
 #include <mrpt/core/Clock.h>
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZOutputStream.h>
@@ -27,8 +17,17 @@
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DQuat.h>
 #include <mrpt/serialization/CArchive.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "io/rawlog.h"
 #include "support/test_paths.h"
@@ -67,7 +66,8 @@ cv::Mat pattern(int width, int height, int seed, int channels = 1) {
 
 struct ForeignRig {
   double fx = 45.0, fy = 46.0, cx = 19.5, cy = 14.25, baseline_m = 0.2;
-  mrpt::poses::CPose3D camera_pose = mrpt::poses::CPose3D(0.3, -0.1, 0.5, -M_PI / 2, 0.0, -M_PI / 2 - 0.1);
+  mrpt::poses::CPose3D camera_pose =
+      mrpt::poses::CPose3D(0.3, -0.1, 0.5, -M_PI / 2, 0.0, -M_PI / 2 - 0.1);
 };
 
 mrpt::img::TCamera camera(const ForeignRig& rig, int width, int height) {
@@ -81,24 +81,29 @@ mrpt::img::TCamera camera(const ForeignRig& rig, int width, int height) {
 /// A rectified stereo observation with embedded images (or none when width == 0, for
 /// external-image tests that fill them in).
 mrpt::obs::CObservationStereoImages::Ptr stereoObs(const ForeignRig& rig,
-                                                  mrpt::Clock::time_point t,
-                                                  const std::string& label,
-                                                  int seed,
-                                                  int channels = 1) {
+                                                   mrpt::Clock::time_point t,
+                                                   const std::string& label,
+                                                   int seed,
+                                                   int channels = 1) {
   auto obs = std::make_shared<mrpt::obs::CObservationStereoImages>();
   obs->sensorLabel = label;
   obs->timestamp = t;
   obs->leftCamera = camera(rig, kWidth, kHeight);
   obs->rightCamera = obs->leftCamera;
   obs->cameraPose = mrpt::poses::CPose3DQuat(rig.camera_pose);
-  obs->rightCameraPose = mrpt::poses::CPose3DQuat(mrpt::poses::CPose3D(rig.baseline_m, 0, 0, 0, 0, 0));
-  obs->imageLeft = mrpt::img::CImage(pattern(kWidth, kHeight, seed, channels), mrpt::img::DEEP_COPY);
-  obs->imageRight = mrpt::img::CImage(pattern(kWidth, kHeight, seed + 1000, channels), mrpt::img::DEEP_COPY);
+  obs->rightCameraPose =
+      mrpt::poses::CPose3DQuat(mrpt::poses::CPose3D(rig.baseline_m, 0, 0, 0, 0, 0));
+  obs->imageLeft =
+      mrpt::img::CImage(pattern(kWidth, kHeight, seed, channels), mrpt::img::DEEP_COPY);
+  obs->imageRight =
+      mrpt::img::CImage(pattern(kWidth, kHeight, seed + 1000, channels), mrpt::img::DEEP_COPY);
   obs->hasImageRight = true;
   return obs;
 }
 
-mrpt::obs::CObservationOdometry::Ptr odometryObs(mrpt::Clock::time_point t, const std::string& label, const mrpt::poses::CPose2D& p) {
+mrpt::obs::CObservationOdometry::Ptr odometryObs(mrpt::Clock::time_point t,
+                                                 const std::string& label,
+                                                 const mrpt::poses::CPose2D& p) {
   auto obs = std::make_shared<mrpt::obs::CObservationOdometry>();
   obs->sensorLabel = label;
   obs->timestamp = t;
@@ -115,7 +120,8 @@ ImageU8 toImage(const cv::Mat& m) {
 
 /// Writes objects in the observations-only format (a plain, uncompressed stream, as MRPT tools
 /// do when compression is off).
-void writeObservations(const std::string& path, const std::vector<mrpt::serialization::CSerializable::Ptr>& objects) {
+void writeObservations(const std::string& path,
+                       const std::vector<mrpt::serialization::CSerializable::Ptr>& objects) {
   mrpt::io::CFileOutputStream f(path);
   ASSERT_TRUE(f.fileOpenCorrectly()) << path;
   auto arch = mrpt::serialization::archiveFrom(f);
@@ -160,7 +166,8 @@ void expectRig(const StereoRig& got, const ForeignRig& want) {
   EXPECT_NEAR(got.baseline_m, want.baseline_m, kPoseTol);
   const auto M = want.camera_pose.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
   for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) EXPECT_NEAR(got.T_b_cl.matrix()(r, c), M(r, c), kPoseTol) << r << "," << c;
+    for (int c = 0; c < 4; ++c)
+      EXPECT_NEAR(got.T_b_cl.matrix()(r, c), M(r, c), kPoseTol) << r << "," << c;
 }
 
 #define EXPECT_MESSAGE_HAS(status, text) \
@@ -184,7 +191,8 @@ TEST(ForeignRawlog, SensoryFrameLogWithEmbeddedImagesAndOdometryActions) {
       stamps.push_back(t);
       mrpt::obs::CActionCollection acts;
       mrpt::obs::CActionRobotMovement2D mv;
-      mv.computeFromOdometry(k == 0 ? mrpt::poses::CPose2D() : increment, mrpt::obs::CActionRobotMovement2D::TMotionModelOptions());
+      mv.computeFromOdometry(k == 0 ? mrpt::poses::CPose2D() : increment,
+                             mrpt::obs::CActionRobotMovement2D::TMotionModelOptions());
       mv.timestamp = ticksTime(t);
       acts.insert(mv);
       log.insert(acts);
@@ -234,7 +242,8 @@ TEST(ForeignRawlog, SensoryFrameLogWithOdometryObservations) {
       log.insert(empty);
       mrpt::obs::CSensoryFrame sf;
       const int64_t t_odo = k == 2 ? t + 10'000'000LL : t;
-      sf.insert(odometryObs(ticksTime(t_odo), "ODOM", mrpt::poses::CPose2D(1.0 * k, -0.5 * k, 0.1 * k)));
+      sf.insert(
+          odometryObs(ticksTime(t_odo), "ODOM", mrpt::poses::CPose2D(1.0 * k, -0.5 * k, 0.1 * k)));
       sf.insert(stereoObs(rig, ticksTime(t), "STEREO_CAM", k));
       log.insert(sf);
     }
@@ -250,7 +259,8 @@ TEST(ForeignRawlog, SensoryFrameLogWithOdometryObservations) {
     EXPECT_NEAR(r.frames[k].odometry->pose.y_m, -0.5 * k, kOdometryTol);
     EXPECT_NEAR(r.frames[k].odometry->pose.yaw_rad, 0.1 * k, kOdometryTol);
   }
-  EXPECT_FALSE(r.frames[2].odometry.has_value()) << "odometry 10 ms off the frame's stamp must not be attached";
+  EXPECT_FALSE(r.frames[2].odometry.has_value())
+      << "odometry 10 ms off the frame's stamp must not be attached";
 }
 
 // --- (b) observations-only rawlogs from another tool ------------------------------------------
@@ -274,7 +284,8 @@ TEST(ForeignRawlog, ObservationsOnlyLogFromAnotherTool) {
   for (int k = 0; k < kFrames; ++k) {
     const auto t = mrpt::Clock::fromDouble(t0_s + 0.1 * k);
     stamps.push_back(t);
-    if (k != 1) objects.push_back(odometryObs(t, "ODOM", mrpt::poses::CPose2D(0.2 * k, 0.01 * k, -0.03 * k)));
+    if (k != 1)
+      objects.push_back(odometryObs(t, "ODOM", mrpt::poses::CPose2D(0.2 * k, 0.01 * k, -0.03 * k)));
     auto s = stereoObs(rig, t, "CAMERA1", k);
     const std::string left = "CAMERA1_L_" + std::to_string(k) + ".png";
     const std::string right = "CAMERA1_R_" + std::to_string(k) + ".png";
@@ -285,7 +296,8 @@ TEST(ForeignRawlog, ObservationsOnlyLogFromAnotherTool) {
     objects.push_back(s);
     objects.push_back(stereoObs(other, t, "CAMERA2", 50 + k));
     // A faster odometry stream: a sample half-way to the next frame belongs to no frame.
-    objects.push_back(odometryObs(mrpt::Clock::fromDouble(t0_s + 0.1 * k + 0.05), "ODOM", mrpt::poses::CPose2D(9, 9, 0)));
+    objects.push_back(odometryObs(
+        mrpt::Clock::fromDouble(t0_s + 0.1 * k + 0.05), "ODOM", mrpt::poses::CPose2D(9, 9, 0)));
   }
   writeObservations(path, objects);
 
@@ -298,7 +310,9 @@ TEST(ForeignRawlog, ObservationsOnlyLogFromAnotherTool) {
     const LogFrame& f = r.frames[k];
     // Real-clock stamps come back as UNIX-epoch nanoseconds.
     const auto expected_ns = static_cast<int64_t>(std::llround((t0_s + 0.1 * k) * 1e9));
-    EXPECT_NEAR(static_cast<double>(f.stereo.t_ns), static_cast<double>(expected_ns), kDoubleClockTolNs) << k;
+    EXPECT_NEAR(
+        static_cast<double>(f.stereo.t_ns), static_cast<double>(expected_ns), kDoubleClockTolNs)
+        << k;
     EXPECT_EQ(f.stereo.left.data, toImage(pattern(kWidth, kHeight, k)).data) << k;
     EXPECT_EQ(f.stereo.right.data, toImage(pattern(kWidth, kHeight, k + 1000)).data) << k;
     if (k == 1) {
@@ -391,23 +405,26 @@ TEST(ForeignRawlogErrors, TruncatedGzipLog) {
   ASSERT_GT(bytes.size(), 100u);
   for (const double fraction : {0.1, 0.35, 0.5, 0.75, 0.95}) {
     const std::string cut = dir + "/cut.rawlog";
-    writeBytes(cut, bytes.substr(0, static_cast<size_t>(fraction * static_cast<double>(bytes.size()))));
+    writeBytes(cut,
+               bytes.substr(0, static_cast<size_t>(fraction * static_cast<double>(bytes.size()))));
     const ReadResult r = readAll(cut);
     if (!r.open.isOk()) {
       EXPECT_MESSAGE_HAS(r.open, cut);
       continue;
     }
     EXPECT_LT(r.frames.size(), static_cast<size_t>(kFrames)) << fraction;
-    EXPECT_FALSE(r.end.isOk()) << "cut at " << fraction << " read " << r.frames.size() << " frames and ended cleanly";
+    EXPECT_FALSE(r.end.isOk()) << "cut at " << fraction << " read " << r.frames.size()
+                               << " frames and ended cleanly";
     EXPECT_MESSAGE_HAS(r.end, cut);
   }
 }
 
 TEST(ForeignRawlogErrors, NoStereoObservations) {
   const std::string path = test::makeTempDir("foreign_no_stereo") + "/odometry_only.rawlog";
-  writeObservations(path,
-                    {odometryObs(ticksTime(1'000'000'000LL), "ODOM", mrpt::poses::CPose2D(0, 0, 0)),
-                     odometryObs(ticksTime(1'100'000'000LL), "ODOM", mrpt::poses::CPose2D(0.1, 0, 0))});
+  writeObservations(
+      path,
+      {odometryObs(ticksTime(1'000'000'000LL), "ODOM", mrpt::poses::CPose2D(0, 0, 0)),
+       odometryObs(ticksTime(1'100'000'000LL), "ODOM", mrpt::poses::CPose2D(0.1, 0, 0))});
   const ReadResult r = readAll(path);
   ASSERT_FALSE(r.open.isOk());
   EXPECT_MESSAGE_HAS(r.open, path);
@@ -423,8 +440,14 @@ TEST(ForeignRawlogErrors, ImagesDoNotMatchTheirCalibration) {
     std::function<void(mrpt::obs::CObservationStereoImages&)> breakIt;
   };
   const std::vector<Case> cases = {
-      {"left_wider", [](auto& o) { o.imageLeft = mrpt::img::CImage(pattern(kWidth + 8, kHeight, 3), mrpt::img::DEEP_COPY); }},
-      {"right_taller", [](auto& o) { o.imageRight = mrpt::img::CImage(pattern(kWidth, kHeight + 2, 3), mrpt::img::DEEP_COPY); }},
+      {"left_wider",
+       [](auto& o) {
+         o.imageLeft = mrpt::img::CImage(pattern(kWidth + 8, kHeight, 3), mrpt::img::DEEP_COPY);
+       }},
+      {"right_taller",
+       [](auto& o) {
+         o.imageRight = mrpt::img::CImage(pattern(kWidth, kHeight + 2, 3), mrpt::img::DEEP_COPY);
+       }},
       {"both_smaller",
        [](auto& o) {
          o.imageLeft = mrpt::img::CImage(pattern(kWidth / 2, kHeight, 3), mrpt::img::DEEP_COPY);
@@ -468,7 +491,9 @@ TEST(ForeignRawlogErrors, CalibrationChangesOrIsNotRectified) {
   ForeignRig other = rig;
   other.fx = 60.0;
   const std::string changed = dir + "/changed.rawlog";
-  writeObservations(changed, {stereoObs(rig, ticksTime(1'000'000'000LL), "CAM", 0), stereoObs(other, ticksTime(2'000'000'000LL), "CAM", 1)});
+  writeObservations(changed,
+                    {stereoObs(rig, ticksTime(1'000'000'000LL), "CAM", 0),
+                     stereoObs(other, ticksTime(2'000'000'000LL), "CAM", 1)});
   ReadResult r = readAll(changed);
   ASSERT_TRUE(r.open.isOk()) << r.open.message();
   EXPECT_EQ(r.frames.size(), 1u);

@@ -1,14 +1,14 @@
 #include "io/rawlog.h"
 
-#include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <random>
-
 #include <gtest/gtest.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
 #include <mrpt/obs/CRawlog.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
 
 #include "support/test_paths.h"
 
@@ -56,7 +56,8 @@ Frame makeFrame(const StereoRig& rig, int k, std::mt19937& rng) {
   f.gt.T_w_b = toIsometry(Pose2{0.1 * k + 0.001, -0.02 * k, 0.031 * k});
   f.gt.depth_left = ImageF32(rig.width_px, rig.height_px);
   for (int v = 0; v < rig.height_px; ++v)
-    for (int u = 0; u < rig.width_px; ++u) f.gt.depth_left(u, v) = (u == 3 && v == 4) ? 0.0f : 0.5f + 0.01f * u + 0.1f * v + 0.001f * k;
+    for (int u = 0; u < rig.width_px; ++u)
+      f.gt.depth_left(u, v) = (u == 3 && v == 4) ? 0.0f : 0.5f + 0.01f * u + 0.1f * v + 0.001f * k;
   return f;
 }
 
@@ -99,7 +100,8 @@ TEST(Rawlog, RoundTripPreservesImagesOdometryAndGroundTruth) {
   Status rs;
   for (const Frame& expected : frames) {
     ASSERT_TRUE(r->next(&f, &rs)) << rs.message();
-    EXPECT_NEAR(static_cast<double>(f.stereo.t_ns), static_cast<double>(expected.stereo.t_ns), kTimeTolNs);
+    EXPECT_NEAR(
+        static_cast<double>(f.stereo.t_ns), static_cast<double>(expected.stereo.t_ns), kTimeTolNs);
     EXPECT_EQ(f.stereo.left.data, expected.stereo.left.data);
     EXPECT_EQ(f.stereo.right.data, expected.stereo.right.data);
     ASSERT_TRUE(f.odometry.has_value());
@@ -109,7 +111,9 @@ TEST(Rawlog, RoundTripPreservesImagesOdometryAndGroundTruth) {
     EXPECT_TRUE(f.ground_truth->T_w_b.isApprox(expected.gt.T_w_b, kPoseTol));
     ASSERT_EQ(f.ground_truth->depth_left.width, rig.width_px);
     for (size_t i = 0; i < expected.gt.depth_left.data.size(); ++i)
-      ASSERT_NEAR(f.ground_truth->depth_left.data[i], expected.gt.depth_left.data[i], 0.5 * unit + 1e-6) << "pixel " << i;
+      ASSERT_NEAR(
+          f.ground_truth->depth_left.data[i], expected.gt.depth_left.data[i], 0.5 * unit + 1e-6)
+          << "pixel " << i;
     EXPECT_EQ(f.ground_truth->depth_left(3, 4), 0.0f);
   }
   EXPECT_FALSE(r->next(&f, &rs));

@@ -19,7 +19,8 @@ std::vector<io::TimedPose> randomTrack(uint64_t seed, int n) {
   for (int i = 0; i < n; ++i) {
     io::TimedPose p;
     p.t_ns = 1'700'000'000'000'000'000LL + i * 66'666'667LL;
-    p.T_w_b.linear() = Eigen::AngleAxisd(u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()).matrix();
+    p.T_w_b.linear() =
+        Eigen::AngleAxisd(u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()).matrix();
     p.T_w_b.translation() = Eigen::Vector3d(u(rng), u(rng), u(rng));
     track.push_back(p);
   }

@@ -1,12 +1,12 @@
 #include "landmarks/landmark_database.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <map>
-
-#include <gtest/gtest.h>
 
 #include "landmarks/landmark_model.h"
 #include "landmarks/refine.h"
@@ -32,7 +32,9 @@ struct RunOutcome {
   int duplicates = 0;
 };
 
-RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options, const LandmarkOptions& options, int frames) {
+RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
+                        const LandmarkOptions& options,
+                        int frames) {
   const StereoRig rig = SyntheticStream::defaultRig();
   SyntheticStream stream(rig, stream_options);
   LandmarkDatabase db(rig, options);
@@ -46,7 +48,8 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options, const Land
     for (uint64_t id : report.removed_ids) anchor_truth.erase(id);
     for (size_t i = 0; i < report.created_slots.size(); ++i) {
       const uint32_t j = report.created_hypotheses[i];
-      anchor_truth[db.landmarks()[report.created_slots[i]].id] = {frame.hypothesis_kind[j], frame.hypothesis_point[j]};
+      anchor_truth[db.landmarks()[report.created_slots[i]].id] = {frame.hypothesis_kind[j],
+                                                                  frame.hypothesis_point[j]};
     }
   }
   RunOutcome out;
@@ -64,9 +67,12 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options, const Land
     if (it->second.first != 0) continue;
     ++out.correct;
     // The odometry world frame drifts from the true one; compare in the anchor camera instead.
-    const Eigen::Vector3d p_anchor = cameraPoseInWorld(l.anchor.odom_pose, rig.T_b_cl).inverse() * l.p_w;
-    const auto p_true = triangulateRectified(rig, Eigen::Vector2d(l.anchor.u_px, l.anchor.v_px), l.anchor.d_px);
-    out.max_correct_error_m = std::max(out.max_correct_error_m, (p_anchor - *p_true).norm() / p_true->z());
+    const Eigen::Vector3d p_anchor =
+        cameraPoseInWorld(l.anchor.odom_pose, rig.T_b_cl).inverse() * l.p_w;
+    const auto p_true =
+        triangulateRectified(rig, Eigen::Vector2d(l.anchor.u_px, l.anchor.v_px), l.anchor.d_px);
+    out.max_correct_error_m =
+        std::max(out.max_correct_error_m, (p_anchor - *p_true).norm() / p_true->z());
   }
   out.final_candidates = db.numCandidates();
   return out;
@@ -85,10 +91,12 @@ TEST(LandmarkDatabase, ConsistencyConfirmsRealLandmarksAndRejectsRivals) {
   LandmarkOptions options;
   const RunOutcome out = runSynthetic(so, options, 300);
   ASSERT_GT(out.confirmed, 300) << "too few confirmations to judge precision";
-  std::printf("consistency on the synthetic stream: %d confirmed, %d correct\n", out.confirmed, out.correct);
+  std::printf("consistency on the synthetic stream: %d confirmed, %d correct\n",
+              out.confirmed,
+              out.correct);
   EXPECT_GE(static_cast<double>(out.correct) / out.confirmed, kMinPrecision)
-      << out.correct << " correct of " << out.confirmed << "; wrong: " << out.wrong_periodic << " periodic, "
-      << out.wrong_random << " random";
+      << out.correct << " correct of " << out.confirmed << "; wrong: " << out.wrong_periodic
+      << " periodic, " << out.wrong_random << " random";
 }
 
 // When the frontend says a corner's list holds every candidate disparity, a candidate needs to
@@ -105,8 +113,11 @@ TEST(LandmarkDatabase, CompleteListsAreVerifiedAgainstTheirOwnRivals) {
   LandmarkOptions off = options;
   off.verify_own_rivals = false;
   const RunOutcome ignored = runSynthetic(so, off, 300);
-  std::printf("confirmed (correct): generic phantoms %d (%d), own rivals %d (%d)\n", generic.confirmed, generic.correct,
-              own.confirmed, own.correct);
+  std::printf("confirmed (correct): generic phantoms %d (%d), own rivals %d (%d)\n",
+              generic.confirmed,
+              generic.correct,
+              own.confirmed,
+              own.correct);
   EXPECT_GT(own.correct, generic.correct);
   EXPECT_GE(static_cast<double>(own.correct) / own.confirmed, kMinPrecision)
       << "wrong: " << own.wrong_periodic << " periodic, " << own.wrong_random << " random";
@@ -128,9 +139,13 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   LandmarkOptions strict = options;
   strict.same_answer_px = 0.0;
   const RunOutcome apart = runSynthetic(so, strict, 300);
-  std::printf("every real match listed twice, confirmed (correct): twins the same answer %d (%d), "
-              "twins as phantoms %d (%d)\n",
-              same.confirmed, same.correct, apart.confirmed, apart.correct);
+  std::printf(
+      "every real match listed twice, confirmed (correct): twins the same answer %d (%d), "
+      "twins as phantoms %d (%d)\n",
+      same.confirmed,
+      same.correct,
+      apart.confirmed,
+      apart.correct);
   EXPECT_GT(same.correct, kMinTwinGain * apart.correct);
   EXPECT_GE(static_cast<double>(same.correct) / same.confirmed, kMinPrecision)
       << "wrong: " << same.wrong_periodic << " periodic, " << same.wrong_random << " random";
@@ -149,8 +164,11 @@ TEST(LandmarkDatabase, LonePriorOnlyMovesLoneCandidates) {
   LandmarkOptions lone = options;
   lone.prior_real_lone = 0.9;
   const RunOutcome raised = runSynthetic(so, lone, 300);
-  std::printf("confirmed (correct) with a lone prior of 0.5: %d (%d), 0.9: %d (%d)\n", base.confirmed,
-              base.correct, raised.confirmed, raised.correct);
+  std::printf("confirmed (correct) with a lone prior of 0.5: %d (%d), 0.9: %d (%d)\n",
+              base.confirmed,
+              base.correct,
+              raised.confirmed,
+              raised.correct);
   EXPECT_GT(raised.correct, base.correct + base.correct / 10);
   EXPECT_GE(static_cast<double>(raised.correct) / raised.confirmed, kMinPrecision);
   // At creation a lone candidate's confidence is prior_real_lone; one with rivals shares
@@ -161,7 +179,8 @@ TEST(LandmarkDatabase, LonePriorOnlyMovesLoneCandidates) {
   SyntheticFrame frame;
   FrameReport report;
   stream.next(&frame);
-  ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+  ASSERT_TRUE(
+      db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
   int lone_seen = 0;
   int grouped_seen = 0;
   for (uint32_t slot : report.created_slots) {
@@ -213,12 +232,17 @@ TEST(LandmarkDatabase, SameSeedSameResult) {
     FrameReport report;
     for (int k = 0; k < 80; ++k) {
       stream.next(&frame);
-      ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+      ASSERT_TRUE(
+          db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
     }
     for (const Landmark& l : db.landmarks()) {
       if (l.state == LandmarkState::kFree) continue;
-      results[run].insert(results[run].end(), {static_cast<double>(l.id), l.p_w.x(), l.p_w.y(), l.p_w.z(),
-                                               static_cast<double>(l.confidence)});
+      results[run].insert(results[run].end(),
+                          {static_cast<double>(l.id),
+                           l.p_w.x(),
+                           l.p_w.y(),
+                           l.p_w.z(),
+                           static_cast<double>(l.confidence)});
     }
   }
   EXPECT_EQ(results[0], results[1]);
@@ -339,10 +363,12 @@ TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
         const int32_t point = frame.hypothesis_point[j];
         frame.hypotheses.hypotheses[j].row_span_px = point >= 0 && point % 2 == 0 ? 3.0f : 0.1f;
       }
-      ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+      ASSERT_TRUE(
+          db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
       for (uint64_t id : report.removed_ids) anchor_point.erase(id);
       for (size_t i = 0; i < report.created_slots.size(); ++i) {
-        anchor_point[db.landmarks()[report.created_slots[i]].id] = frame.hypothesis_point[report.created_hypotheses[i]];
+        anchor_point[db.landmarks()[report.created_slots[i]].id] =
+            frame.hypothesis_point[report.created_hypotheses[i]];
       }
     }
     *confirmed_even = *confirmed_odd = 0;
@@ -384,7 +410,8 @@ TEST(LandmarkDatabase, RevisitedLandmarksAreReassociatedNotDuplicated) {
   SyntheticStreamOptions so;
   so.seed = 5;
   so.num_points = 1500;
-  so.odom_sigma_per_m = so.odom_sigma_per_rad = so.odom_scale_error = so.odom_wheel_base_error = 0.0;
+  so.odom_sigma_per_m = so.odom_sigma_per_rad = so.odom_scale_error = so.odom_wheel_base_error =
+      0.0;
   const StereoRig rig = SyntheticStream::defaultRig();
   SyntheticStream stream(rig, so);
   LandmarkDatabase db(rig, LandmarkOptions());
@@ -393,7 +420,8 @@ TEST(LandmarkDatabase, RevisitedLandmarksAreReassociatedNotDuplicated) {
   int max_candidates = 0;
   for (int k = 0; k < 2000; ++k) {
     stream.next(&frame);
-    ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+    ASSERT_TRUE(
+        db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
     max_candidates = std::max(max_candidates, db.numCandidates());
   }
   EXPECT_GT(db.numConfirmed(), 500);
@@ -430,20 +458,31 @@ TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
   nearest.unambiguous_confirmed_hits = false;
   const RunOutcome early_without = runSynthetic(so, nearest, kShort);
   const RunOutcome without_rule = runSynthetic(so, nearest, kFrames);
-  std::printf("duplicates on the drifting stream: %d of %d confirmed at frame %d, %d of %d at frame %d; "
-              "taking the nearest corner: %d of %d, %d of %d\n",
-              early.duplicates, early.confirmed, kShort, with_rule.duplicates, with_rule.confirmed, kFrames,
-              early_without.duplicates, early_without.confirmed, without_rule.duplicates, without_rule.confirmed);
+  std::printf(
+      "duplicates on the drifting stream: %d of %d confirmed at frame %d, %d of %d at frame %d; "
+      "taking the nearest corner: %d of %d, %d of %d\n",
+      early.duplicates,
+      early.confirmed,
+      kShort,
+      with_rule.duplicates,
+      with_rule.confirmed,
+      kFrames,
+      early_without.duplicates,
+      early_without.confirmed,
+      without_rule.duplicates,
+      without_rule.confirmed);
   ASSERT_GT(with_rule.confirmed, 100);
   EXPECT_LT(with_rule.duplicates, kMaxDuplicateFraction * with_rule.confirmed)
       << with_rule.duplicates << " of " << with_rule.confirmed;
   EXPECT_LE(with_rule.duplicates, early.duplicates + kMaxDuplicateGrowth * with_rule.confirmed)
-      << early.duplicates << " at frame " << kShort << ", " << with_rule.duplicates << " at " << kFrames;
+      << early.duplicates << " at frame " << kShort << ", " << with_rule.duplicates << " at "
+      << kFrames;
   // The same run taking the nearest corner breeds them (this is what the rule prevents).
   EXPECT_GT(without_rule.duplicates, 4 * with_rule.duplicates + 50)
       << without_rule.duplicates << " of " << without_rule.confirmed;
   EXPECT_GT(without_rule.duplicates, 2 * early_without.duplicates)
-      << early_without.duplicates << " at frame " << kShort << ", " << without_rule.duplicates << " at " << kFrames;
+      << early_without.duplicates << " at frame " << kShort << ", " << without_rule.duplicates
+      << " at " << kFrames;
 }
 
 TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
@@ -459,7 +498,8 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
   FrameReport report;
   for (int k = 0; k < 1200; ++k) {
     stream.next(&frame);
-    ASSERT_TRUE(db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
+    ASSERT_TRUE(
+        db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
     ASSERT_LE(db.numConfirmed(), options.max_confirmed);
   }
   EXPECT_EQ(db.numConfirmed(), options.max_confirmed);
@@ -569,7 +609,8 @@ ProbeRun runFlickeringPoint(const LandmarkOptions& options,
       }
       return Status::ok();
     };
-    const Status s = db.update(k, 100'000'000LL * k, pose, hyps, &report, with_probe ? &probe : nullptr);
+    const Status s =
+        db.update(k, 100'000'000LL * k, pose, hyps, &report, with_probe ? &probe : nullptr);
     EXPECT_TRUE(s.isOk()) << s.message();
     run.probed += report.probed;
     run.probe_found += report.probe_found;
@@ -604,17 +645,25 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   EXPECT_EQ(unused.probed, 0);
   // An answer outside the gate (another depth), or several answers (ambiguous), is still a miss.
   constexpr float kOtherDepthPx = 6.0f;
-  const ProbeRun elsewhere =
-      runFlickeringPoint(options, [](float d) { return std::vector<float>{d + kOtherDepthPx}; }, true, kFrames);
+  const ProbeRun elsewhere = runFlickeringPoint(
+      options, [](float d) { return std::vector<float>{d + kOtherDepthPx}; }, true, kFrames);
   EXPECT_FALSE(elsewhere.alive);
   EXPECT_GT(elsewhere.probed, 0);
   EXPECT_EQ(elsewhere.probe_found, 0);
   const ProbeRun not_finite = runFlickeringPoint(
-      options, [](float) { return std::vector<float>{std::numeric_limits<float>::quiet_NaN()}; }, true, kFrames);
+      options,
+      [](float) { return std::vector<float>{std::numeric_limits<float>::quiet_NaN()}; },
+      true,
+      kFrames);
   EXPECT_FALSE(not_finite.alive);
   EXPECT_EQ(not_finite.probe_found, 0);
-  const ProbeRun ambiguous =
-      runFlickeringPoint(options, [](float d) { return std::vector<float>{d, d + kOtherDepthPx}; }, true, kFrames);
+  const ProbeRun ambiguous = runFlickeringPoint(
+      options,
+      [](float d) {
+        return std::vector<float>{d, d + kOtherDepthPx};
+      },
+      true,
+      kFrames);
   EXPECT_FALSE(ambiguous.alive);
   EXPECT_EQ(ambiguous.probe_found, 0);
   // The baselines, as published, do not re-measure.
@@ -633,9 +682,11 @@ TEST(LandmarkDatabase, ProbeErrorStopsTheUpdateWithAClearMessage) {
     return Status::error("images differ in size");
   };
   // Nothing detected in the next frame: every candidate is unassociated, so the probe runs.
-  const Status s = db.update(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report, &failing);
+  const Status s =
+      db.update(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report, &failing);
   ASSERT_FALSE(s.isOk());
-  EXPECT_NE(s.message().find("re-measuring unseen candidates: images differ in size"), std::string::npos)
+  EXPECT_NE(s.message().find("re-measuring unseen candidates: images differ in size"),
+            std::string::npos)
       << s.message();
 }
 
@@ -676,7 +727,8 @@ TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
   const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(Pose2{0.6, 0.0, 0.0}, rig.T_b_cl).inverse();
   const double fb = rig.fx_px * rig.baseline_m;
   const double u_a = 190.0;
-  const double v_a = rig.cy_px - rig.fy_px * std::tan(5.0 * M_PI / 180.0) + 2.0;  // near the horizon
+  const double v_a =
+      rig.cy_px - rig.fy_px * std::tan(5.0 * M_PI / 180.0) + 2.0;  // near the horizon
   const double d_true = fb / 4.4;
   const double d_alias = 0.44 * d_true;
   const auto p_cla = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_true);
@@ -688,25 +740,67 @@ TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
   for (const bool columns : {false, true}) {
     LandmarkOptions options;
     options.anchor_check_columns = columns;
-    const AnchorCheck real = checkAgainstAnchor(
-        options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x(), seen.y(), seen.z(), kPathM, 0.0);
-    const AnchorCheck alias = checkAgainstAnchor(
-        options, rig, T_w_cl_anchor, u_a, v_a, d_alias, T_cl_w, seen.x(), seen.y(), d_alias_seen, kPathM, 0.0);
+    const AnchorCheck real = checkAgainstAnchor(options,
+                                                rig,
+                                                T_w_cl_anchor,
+                                                u_a,
+                                                v_a,
+                                                d_true,
+                                                T_cl_w,
+                                                seen.x(),
+                                                seen.y(),
+                                                seen.z(),
+                                                kPathM,
+                                                0.0);
+    const AnchorCheck alias = checkAgainstAnchor(options,
+                                                 rig,
+                                                 T_w_cl_anchor,
+                                                 u_a,
+                                                 v_a,
+                                                 d_alias,
+                                                 T_cl_w,
+                                                 seen.x(),
+                                                 seen.y(),
+                                                 d_alias_seen,
+                                                 kPathM,
+                                                 0.0);
     ASSERT_TRUE(real.valid && alias.valid);
-    EXPECT_LT(real.mahalanobis2, 0.01) << "columns " << columns;  // exact observation of a real point
+    EXPECT_LT(real.mahalanobis2, 0.01)
+        << "columns " << columns;  // exact observation of a real point
     if (columns) {
       EXPECT_GT(alias.mahalanobis2, 2.0 * options.anchor_gate_chi2);
     } else {
-      EXPECT_LT(alias.mahalanobis2, options.anchor_gate_chi2);  // what the row/disparity check misses
+      EXPECT_LT(alias.mahalanobis2,
+                options.anchor_gate_chi2);  // what the row/disparity check misses
     }
   }
   // A 25 px column error contradicts a real point after straight driving; after a turn the
   // heading error makes columns uninformative and the same error is within the gate.
   LandmarkOptions options;
-  const AnchorCheck straight = checkAgainstAnchor(
-      options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x() + 25.0, seen.y(), seen.z(), kPathM, 0.0);
-  const AnchorCheck turned = checkAgainstAnchor(
-      options, rig, T_w_cl_anchor, u_a, v_a, d_true, T_cl_w, seen.x() + 25.0, seen.y(), seen.z(), kPathM, 1.5);
+  const AnchorCheck straight = checkAgainstAnchor(options,
+                                                  rig,
+                                                  T_w_cl_anchor,
+                                                  u_a,
+                                                  v_a,
+                                                  d_true,
+                                                  T_cl_w,
+                                                  seen.x() + 25.0,
+                                                  seen.y(),
+                                                  seen.z(),
+                                                  kPathM,
+                                                  0.0);
+  const AnchorCheck turned = checkAgainstAnchor(options,
+                                                rig,
+                                                T_w_cl_anchor,
+                                                u_a,
+                                                v_a,
+                                                d_true,
+                                                T_cl_w,
+                                                seen.x() + 25.0,
+                                                seen.y(),
+                                                seen.z(),
+                                                kPathM,
+                                                1.5);
   ASSERT_TRUE(straight.valid && turned.valid);
   EXPECT_GT(straight.mahalanobis2, options.anchor_gate_chi2);
   EXPECT_LT(turned.mahalanobis2, options.anchor_gate_chi2);
@@ -728,7 +822,8 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
   const double d_real = fb / 4.0;
   // A candidate that is a phantom: its anchor disparity is the real one's times a fixed ratio,
   // the real point sitting on the anchor ray at the lower phantom disparity of the test.
-  const double offset = std::max(options.verify_min_offset_px, options.verify_relative_offset * d_real);
+  const double offset =
+      std::max(options.verify_min_offset_px, options.verify_relative_offset * d_real);
   const double d_phantom = d_real * d_real / (d_real - offset);
   const auto p_real = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_real);
   ASSERT_TRUE(p_real.has_value());
@@ -739,31 +834,60 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
   int discriminative_frame = -1;
   for (int k = 1; k <= 30; ++k) {
     const double path_m = k * kStepM;
-    const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(Pose2{path_m, 0.0, 0.0}, rig.T_b_cl).inverse();
+    const Eigen::Isometry3d T_cl_w =
+        cameraPoseInWorld(Pose2{path_m, 0.0, 0.0}, rig.T_b_cl).inverse();
     Eigen::Vector3d seen;
     ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p_real), &seen));
-    const AnchorCheck real = checkAgainstAnchor(
-        options, rig, T_w_cl_anchor, u_a, v_a, d_real, T_cl_w, seen.x(), seen.y(), seen.z(), path_m, 0.0);
-    const AnchorCheck phantom = checkAgainstAnchor(options, rig, T_w_cl_anchor, u_a, v_a, d_phantom, T_cl_w, seen.x(),
-                                                   seen.y(), seen.z() * d_phantom / d_real, path_m, 0.0);
+    const AnchorCheck real = checkAgainstAnchor(options,
+                                                rig,
+                                                T_w_cl_anchor,
+                                                u_a,
+                                                v_a,
+                                                d_real,
+                                                T_cl_w,
+                                                seen.x(),
+                                                seen.y(),
+                                                seen.z(),
+                                                path_m,
+                                                0.0);
+    const AnchorCheck phantom = checkAgainstAnchor(options,
+                                                   rig,
+                                                   T_w_cl_anchor,
+                                                   u_a,
+                                                   v_a,
+                                                   d_phantom,
+                                                   T_cl_w,
+                                                   seen.x(),
+                                                   seen.y(),
+                                                   seen.z() * d_phantom / d_real,
+                                                   path_m,
+                                                   0.0);
     ASSERT_TRUE(real.valid && phantom.valid);
     EXPECT_LT(real.mahalanobis2, 0.01);
     if (phantom.mahalanobis2 <= options.anchor_gate_chi2) {  // a contradiction is not summed
       for (int i = 0; i < 2; ++i) llr_phantom[i] += phantom.phantom_llr[i];
     }
     for (int i = 0; i < 2; ++i) {
-      EXPECT_GE(real.phantom_llr[i], 0.0) << "frame " << k;  // an exact observation favours the truth
+      EXPECT_GE(real.phantom_llr[i], 0.0)
+          << "frame " << k;  // an exact observation favours the truth
       llr_real[i] += real.phantom_llr[i];
     }
-    if (verified_frame < 0 && std::min(llr_real[0], llr_real[1]) >= options.verify_llr) verified_frame = k;
+    if (verified_frame < 0 && std::min(llr_real[0], llr_real[1]) >= options.verify_llr)
+      verified_frame = k;
     if (discriminative_frame < 0 && real.discriminative) discriminative_frame = k;
   }
-  std::printf("real point verified at frame %d (one frame's motion separates at %d); phantom's evidence %.1f, %.1f\n",
-              verified_frame, discriminative_frame, llr_phantom[0], llr_phantom[1]);
+  std::printf(
+      "real point verified at frame %d (one frame's motion separates at %d); phantom's evidence "
+      "%.1f, %.1f\n",
+      verified_frame,
+      discriminative_frame,
+      llr_phantom[0],
+      llr_phantom[1]);
   ASSERT_GT(verified_frame, 0) << "evidence " << llr_real[0] << ", " << llr_real[1];
   EXPECT_GT(verified_frame, 1);  // one small step is not enough
   EXPECT_TRUE(discriminative_frame < 0 || verified_frame < discriminative_frame)
-      << "verified at frame " << verified_frame << ", one frame's motion separates at " << discriminative_frame;
+      << "verified at frame " << verified_frame << ", one frame's motion separates at "
+      << discriminative_frame;
   // The phantom's own evidence favours the real point it is a phantom of.
   EXPECT_LT(llr_phantom[0], 0.0);
   EXPECT_LT(std::min(llr_phantom[0], llr_phantom[1]), options.verify_llr);
@@ -785,19 +909,31 @@ TEST(LandmarkModel, OwnPhantomDisparitiesReplaceTheGenericOffsets) {
   ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p), &seen));
   seen.z() += 0.2;  // a little noise, so no likelihood ratio is exactly symmetric
   const auto check = [&](const float* phantoms) {
-    return checkAgainstAnchor(options, rig, T_w_cl_anchor, u_a, v_a, d_a, T_cl_w, seen.x(), seen.y(), seen.z(), 0.3,
-                              0.0, phantoms);
+    return checkAgainstAnchor(options,
+                              rig,
+                              T_w_cl_anchor,
+                              u_a,
+                              v_a,
+                              d_a,
+                              T_cl_w,
+                              seen.x(),
+                              seen.y(),
+                              seen.z(),
+                              0.3,
+                              0.0,
+                              phantoms);
   };
   const AnchorCheck generic = check(nullptr);
-  const double offset = std::max(options.verify_min_offset_px, options.verify_relative_offset * d_a);
+  const double offset =
+      std::max(options.verify_min_offset_px, options.verify_relative_offset * d_a);
   const float same[2] = {static_cast<float>(d_a - offset), static_cast<float>(d_a + offset)};
   const AnchorCheck as_generic = check(same);
   for (int k = 0; k < 2; ++k) EXPECT_NEAR(as_generic.phantom_llr[k], generic.phantom_llr[k], 1e-6);
   const float one_far_rival[2] = {0.0f, 40.0f};
   const AnchorCheck own = check(one_far_rival);
-  EXPECT_EQ(own.phantom_llr[0], kPhantomImpossible);           // no rival below
-  EXPECT_GT(own.phantom_llr[1], generic.phantom_llr[1]);       // a farther phantom is told apart sooner
-  EXPECT_EQ(own.discriminative, generic.discriminative);       // still the generic offsets
+  EXPECT_EQ(own.phantom_llr[0], kPhantomImpossible);      // no rival below
+  EXPECT_GT(own.phantom_llr[1], generic.phantom_llr[1]);  // a farther phantom is told apart sooner
+  EXPECT_EQ(own.discriminative, generic.discriminative);  // still the generic offsets
   EXPECT_EQ(own.mahalanobis2, generic.mahalanobis2);
 }
 
@@ -843,7 +979,8 @@ TEST(Refine, RecoversPointFromNoisyViewsDespiteAnOutlier) {
   constexpr double kRefineTolM = 0.05;
   EXPECT_LT((p - p_true).norm(), kRefineTolM) << p.transpose();
   std::vector<Observation> one(obs.begin(), obs.begin() + 1);
-  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, one, RefineOptions(), &p), RefineResult::kTooFewObservations);
+  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, one, RefineOptions(), &p),
+            RefineResult::kTooFewObservations);
 
   // Every later view 2 px nearer than the anchor says (odometry drift, or a neighbouring
   // corner): the refinement would move the anchor disparity by ~2 px > 2 sigma and is refused.

@@ -1,5 +1,4 @@
 #include "pipeline/config.h"
-#include "pipeline/pipeline.h"
 
 #include <gtest/gtest.h>
 
@@ -14,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/pipeline.h"
 #include "support/test_paths.h"
 
 namespace twocam::pipeline {
@@ -419,7 +419,9 @@ StereoFrame planeFrame(const StereoRig& rig, int d, int64_t t_ns) {
   const int cols = (rig.width_px + d) / block + 2;
   std::vector<uint8_t> blocks(static_cast<size_t>(cols) * (rig.height_px / block + 2));
   for (uint8_t& b : blocks) b = static_cast<uint8_t>(grey(rng));
-  const auto texture = [&](int x, int y) { return blocks[static_cast<size_t>(y / block) * cols + x / block]; };
+  const auto texture = [&](int x, int y) {
+    return blocks[static_cast<size_t>(y / block) * cols + x / block];
+  };
   StereoFrame frame;
   frame.t_ns = t_ns;
   frame.left = ImageU8(rig.width_px, rig.height_px);
@@ -455,7 +457,9 @@ TEST(Pipeline, ProcessReMeasuresUnassociatedCandidatesOnTheFrame) {
     again.t_ns = 100'000'000;
     ASSERT_TRUE(pipe.process(1, again, moved, &out).isOk());
     const landmarks::FrameReport& report = pipe.report();
-    std::printf("probe_unseen %d: %d candidates re-measured, %d found\n", probe_unseen ? 1 : 0, report.probed,
+    std::printf("probe_unseen %d: %d candidates re-measured, %d found\n",
+                probe_unseen ? 1 : 0,
+                report.probed,
                 report.probe_found);
     if (probe_unseen) {
       EXPECT_GT(report.probed, 100);

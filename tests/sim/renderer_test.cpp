@@ -1,11 +1,11 @@
 #include "sim/renderer.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "common/random.h"
 #include "sim/surfaces.h"
@@ -101,10 +101,11 @@ TEST(StereoRenderer, ProjectsTargetsAtPinholeProjection) {
   const World world = makeWorld();
   const Eigen::Isometry3d T_w_c = cameraLookingAlongX(Eigen::Vector3d(0, 0, 1));
   // Targets at several depths and image positions (world points, camera at z = 1).
-  const std::vector<Eigen::Vector3d> centres = {{1.0, 0.13, 1.07}, {2.0, -0.41, 0.8}, {3.5, -0.9, 1.45},
-                                                {1.5, -0.05, 0.93}, {6.0, 1.7, 0.2}};
+  const std::vector<Eigen::Vector3d> centres = {
+      {1.0, 0.13, 1.07}, {2.0, -0.41, 0.8}, {3.5, -0.9, 1.45}, {1.5, -0.05, 0.93}, {6.0, 1.7, 0.2}};
   std::vector<TexturedMesh> meshes;
-  for (const auto& c : centres) meshes.push_back(frontoParallelSquare(c, 0.06 * c.x(), gaussianBlobTexture(128)));
+  for (const auto& c : centres)
+    meshes.push_back(frontoParallelSquare(c, 0.06 * c.x(), gaussianBlobTexture(128)));
   auto renderer = makeRenderer(world, std::move(meshes));
   ASSERT_TRUE(renderer);
   ImageU8 left, right;
@@ -115,14 +116,17 @@ TEST(StereoRenderer, ProjectsTargetsAtPinholeProjection) {
     Eigen::Vector2d uv;
     ASSERT_TRUE(projectLeft(world.rig, T_c_w * c, &uv));
     const Eigen::Vector2d got = centroid(left, uv.x(), uv.y(), 20);
-    if (std::getenv("TWOCAM_TEST_VERBOSE")) std::printf("target %.2f: left err %.3f %.3f\n", c.x(), got.x() - uv.x(), got.y() - uv.y());
+    if (std::getenv("TWOCAM_TEST_VERBOSE"))
+      std::printf("target %.2f: left err %.3f %.3f\n", c.x(), got.x() - uv.x(), got.y() - uv.y());
     EXPECT_NEAR(got.x(), uv.x(), kProjectionTolPx) << "target at " << c.transpose();
     EXPECT_NEAR(got.y(), uv.y(), kProjectionTolPx) << "target at " << c.transpose();
     // The right view sees it shifted by the disparity fx * B / Z along the row.
     const double z = (T_c_w * c).z();
     const double d = world.rig.fx_px * world.rig.baseline_m / z;
     const Eigen::Vector2d got_r = centroid(right, uv.x() - d, uv.y(), 20);
-    if (std::getenv("TWOCAM_TEST_VERBOSE")) std::printf("target %.2f: right err %.3f %.3f\n", c.x(), got_r.x() - uv.x() + d, got_r.y() - uv.y());
+    if (std::getenv("TWOCAM_TEST_VERBOSE"))
+      std::printf(
+          "target %.2f: right err %.3f %.3f\n", c.x(), got_r.x() - uv.x() + d, got_r.y() - uv.y());
     EXPECT_NEAR(got_r.x(), uv.x() - d, kProjectionTolPx) << "target at " << c.transpose();
     EXPECT_NEAR(got_r.y(), uv.y(), kProjectionTolPx) << "target at " << c.transpose();
   }
@@ -131,7 +135,8 @@ TEST(StereoRenderer, ProjectsTargetsAtPinholeProjection) {
 TEST(StereoRenderer, ProjectsTargetsForAPitchedAndYawedCamera) {
   const World world = makeWorld();
   Eigen::Isometry3d T_w_c = Eigen::Isometry3d::Identity();
-  T_w_c.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).matrix() * opticalRotationFromYawPitch(0.0, 0.3);
+  T_w_c.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).matrix() *
+                   opticalRotationFromYawPitch(0.0, 0.3);
   T_w_c.translation() = Eigen::Vector3d(0.4, -0.3, 0.5);
   // Targets fronto-parallel to this camera, given in its frame (x right, y down, z forward).
   const std::vector<Eigen::Vector3d> p_c = {{0.2, -0.1, 1.2}, {-0.5, 0.3, 2.5}, {0.9, 0.6, 4.0}};
@@ -162,7 +167,9 @@ TEST(StereoRenderer, ProjectsTargetsForAPitchedAndYawedCamera) {
     const Eigen::Vector2d got_r = centroid(right, uv.x() - d, uv.y(), 20);
     EXPECT_NEAR(got_r.x(), uv.x() - d, kProjectionTolPx) << "target at " << p.transpose();
     EXPECT_NEAR(got_r.y(), uv.y(), kProjectionTolPx) << "target at " << p.transpose();
-    EXPECT_NEAR(depth(static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))), p.z(), kDepthRelTol * p.z());
+    EXPECT_NEAR(depth(static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))),
+                p.z(),
+                kDepthRelTol * p.z());
   }
 }
 
@@ -203,7 +210,8 @@ TEST(StereoRenderer, DepthMatchesAnalyticDepthOfKnownSurfaces) {
   EXPECT_GT(checked, 10000);
   EXPECT_GT(on_front_wall, 500);
   const int rendered = stats.pixels_coherent + stats.pixels_searched + stats.pixels_unresolved;
-  EXPECT_GE(static_cast<double>(stats.pixels_coherent + stats.pixels_searched) / rendered, kMinResolvedFraction);
+  EXPECT_GE(static_cast<double>(stats.pixels_coherent + stats.pixels_searched) / rendered,
+            kMinResolvedFraction);
 }
 
 TEST(StereoRenderer, SameInputSameImages) {
@@ -233,7 +241,8 @@ TEST(Surfaces, RayHitsParallelogramAndTriangleInsideOnly) {
   EXPECT_LT(intersectFacet(f, Eigen::Vector3d::Zero(), Eigen::Vector3d(1, 0.6, 0)), 0.0);
   EXPECT_LT(intersectFacet(f, Eigen::Vector3d::Zero(), Eigen::Vector3d(-1, 0, 0)), 0.0);
   f.triangle = true;
-  EXPECT_NEAR(intersectFacet(f, Eigen::Vector3d::Zero(), Eigen::Vector3d(1, -0.4, -0.4)), 2.0, kTol);
+  EXPECT_NEAR(
+      intersectFacet(f, Eigen::Vector3d::Zero(), Eigen::Vector3d(1, -0.4, -0.4)), 2.0, kTol);
   EXPECT_LT(intersectFacet(f, Eigen::Vector3d::Zero(), Eigen::Vector3d(1, 0.4, 0.4)), 0.0);
 }
 

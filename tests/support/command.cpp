@@ -20,10 +20,13 @@ std::string readFile(const std::string& path) {
 
 CommandResult runCommand(const std::string& command_line) {
   const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::string name = info != nullptr ? std::string(info->test_suite_name()) + "_" + info->name() : "no_test";
-  const std::string stem =
-      (std::filesystem::temp_directory_path() / ("twocam_cmd_" + name + "_" + std::to_string(getpid()))).string();
-  const int rc = std::system((command_line + " > " + stem + ".txt 2> " + stem + ".err.txt").c_str());
+  const std::string name =
+      info != nullptr ? std::string(info->test_suite_name()) + "_" + info->name() : "no_test";
+  const std::string stem = (std::filesystem::temp_directory_path() /
+                            ("twocam_cmd_" + name + "_" + std::to_string(getpid())))
+                               .string();
+  const int rc =
+      std::system((command_line + " > " + stem + ".txt 2> " + stem + ".err.txt").c_str());
   CommandResult r;
   r.exit_code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
   r.out = readFile(stem + ".txt");

@@ -40,7 +40,8 @@ SyntheticStream::SyntheticStream(const StereoRig& rig, const SyntheticStreamOpti
       p = {-options.half_x_m, options.half_y_m - s, z};
     }
     points_w_.push_back(p);
-    period_m_.push_back(unit(rng_) < options.periodic_rival_fraction ? 0.05 + 0.25 * unit(rng_) : 0.0);
+    period_m_.push_back(unit(rng_) < options.periodic_rival_fraction ? 0.05 + 0.25 * unit(rng_)
+                                                                     : 0.0);
   }
   // Start on the circle at angle 0, heading tangentially (counter-clockwise).
   true_pose_ = {options.circle_radius_m, 0.0, M_PI / 2.0};
@@ -98,7 +99,8 @@ void SyntheticStream::next(SyntheticFrame* out) {
     };
     Cand cands[4];
     int n = 0;
-    cands[n++] = {static_cast<float>(d + options_.disparity_sigma_px * normal(rng_)), true, 0.0f, 0};
+    cands[n++] = {
+        static_cast<float>(d + options_.disparity_sigma_px * normal(rng_)), true, 0.0f, 0};
     // Drawn only when asked for, so that streams without twins stay as they were.
     if (options_.twin_prob > 0.0 && unit(rng_) < options_.twin_prob) {
       const double offset = (unit(rng_) < 0.5 ? -1.0 : 1.0) * 0.6 * unit(rng_);
@@ -106,7 +108,8 @@ void SyntheticStream::next(SyntheticFrame* out) {
     }
     if (period_m_[i] > 0.0) {
       const double d_wrong = d + rig_.fx_px * period_m_[i] / p.z();
-      if (d_wrong <= options_.max_disparity_px) cands[n++] = {static_cast<float>(d_wrong), false, 0.0f, 1};
+      if (d_wrong <= options_.max_disparity_px)
+        cands[n++] = {static_cast<float>(d_wrong), false, 0.0f, 1};
     }
     if (unit(rng_) < options_.random_rival_prob) {
       const double d_rand = 1.0 + unit(rng_) * (options_.max_disparity_px - 1.0);

@@ -6,11 +6,10 @@
 /// of a periodic texture (disparity offset by a fixed world period, so the phantom point moves
 /// consistently but wrongly) or like random mismatches. The truth of every hypothesis is known.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <random>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "common/features.h"
 #include "common/frames.h"

@@ -26,7 +26,8 @@ namespace {
 /// The process's folder of test files, removed when the process ends unless
 /// TWOCAM_KEEP_TEST_FILES is set (to look at them after a failure).
 struct ProcessTempRoot {
-  fs::path path = fs::temp_directory_path() / ("twocam_test_" + std::to_string(static_cast<long>(getpid())));
+  fs::path path =
+      fs::temp_directory_path() / ("twocam_test_" + std::to_string(static_cast<long>(getpid())));
   ~ProcessTempRoot() {
     if (std::getenv("TWOCAM_KEEP_TEST_FILES") != nullptr) return;
     std::error_code ec;

@@ -19,7 +19,7 @@ std::string makeTempDir(const std::string& name);
 }  // namespace twocam::test
 
 /// Skips the current test with a message when ../shared/data is absent.
-#define TWOCAM_REQUIRE_SHARED_DATA(var)                                                    \
-  const auto var##_opt = ::twocam::test::sharedDataDir();                                  \
-  if (!var##_opt) GTEST_SKIP() << "../shared/data is absent (users' clones lack it)";      \
+#define TWOCAM_REQUIRE_SHARED_DATA(var)                                               \
+  const auto var##_opt = ::twocam::test::sharedDataDir();                             \
+  if (!var##_opt) GTEST_SKIP() << "../shared/data is absent (users' clones lack it)"; \
   const std::string var = *var##_opt

@@ -238,10 +238,12 @@ TEST(TwocamCli, RunSkipsBadOdometryFramesAndRunsTheFrontendOnlyWithoutOdometry) 
   const RunResult far = run("run " + dir + "/far.rawlog -o " + dir + "/out_far -q --no-pictures");
   EXPECT_EQ(far.exit_code, 0) << far.output;
   EXPECT_NE(far.error.find("outside the map"), std::string::npos) << far.error;
-  EXPECT_NE(readFile(dir + "/out_far/metrics.json").find("\"frames_outside_map\": 8"), std::string::npos);
+  EXPECT_NE(readFile(dir + "/out_far/metrics.json").find("\"frames_outside_map\": 8"),
+            std::string::npos);
 
   // A log without odometry (EuRoC): the frontend runs, no landmarks, no map, and it says so.
-  const RunResult no_odo = run("run " + dir + "/no_odo.rawlog -o " + dir + "/out_no_odo -q --no-pictures");
+  const RunResult no_odo =
+      run("run " + dir + "/no_odo.rawlog -o " + dir + "/out_no_odo -q --no-pictures");
   EXPECT_EQ(no_odo.exit_code, 0) << no_odo.error;
   EXPECT_NE(no_odo.error.find("has no odometry"), std::string::npos) << no_odo.error;
   const std::string no_odo_json = readFile(dir + "/out_no_odo/metrics.json");
@@ -250,28 +252,47 @@ TEST(TwocamCli, RunSkipsBadOdometryFramesAndRunsTheFrontendOnlyWithoutOdometry) 
   EXPECT_FALSE(fs::exists(dir + "/out_no_odo/map.bt"));
   EXPECT_TRUE(fs::exists(dir + "/out_no_odo/sample_frame/hypotheses.csv"));
 
-  const RunResult missing = run("run " + dir + "/nope.rawlog -o " + dir + "/out_missing -q --no-pictures");
+  const RunResult missing =
+      run("run " + dir + "/nope.rawlog -o " + dir + "/out_missing -q --no-pictures");
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_NE(missing.error.find("nope.rawlog"), std::string::npos) << missing.error;
-  const RunResult policy = run("run " + dir + "/ok.rawlog -o " + dir + "/out_p --policy best -q --no-pictures");
+  const RunResult policy =
+      run("run " + dir + "/ok.rawlog -o " + dir + "/out_p --policy best -q --no-pictures");
   EXPECT_NE(policy.exit_code, 0);
   EXPECT_NE(policy.error.find("best"), std::string::npos) << policy.error;
 }
 
 TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
   const std::string dir = test::makeTempDir("cli_run_outputs");
-  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 24 --seed 5 -q").exit_code, 0);
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 24 --seed 5 -q")
+                .exit_code,
+            0);
   ASSERT_TRUE(fs::exists(dir + "/s.world.yaml"));
   const RunResult a = run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures");
   ASSERT_EQ(a.exit_code, 0) << a.output;
-  for (const char* f : {"metrics.json", "landmarks.csv", "trajectory_odom.tum", "trajectory_gt.tum", "map.bt",
-                        "config_used.yaml", "timings.csv", "timing.json", "map_voxels.csv", "map_eval_voxels.csv",
-                        "world_outline.csv", "sample_frame/left.png", "sample_frame/right.png",
+  for (const char* f : {"metrics.json",
+                        "landmarks.csv",
+                        "trajectory_odom.tum",
+                        "trajectory_gt.tum",
+                        "map.bt",
+                        "config_used.yaml",
+                        "timings.csv",
+                        "timing.json",
+                        "map_voxels.csv",
+                        "map_eval_voxels.csv",
+                        "world_outline.csv",
+                        "sample_frame/left.png",
+                        "sample_frame/right.png",
                         "sample_frame/hypotheses.csv"}) {
     EXPECT_TRUE(fs::exists(dir + "/a/" + f)) << f;
   }
   const std::string metrics = readFile(dir + "/a/metrics.json");
-  for (const char* key : {"\"octomap\"", "\"phantom_fraction\"", "\"ate_rmse_m\"", "\"precision\"", "\"by_texture\"", "\"seed\": 1",
+  for (const char* key : {"\"octomap\"",
+                          "\"phantom_fraction\"",
+                          "\"ate_rmse_m\"",
+                          "\"precision\"",
+                          "\"by_texture\"",
+                          "\"seed\": 1",
                           "\"odometry\": true"}) {
     EXPECT_NE(metrics.find(key), std::string::npos) << key << "\n" << metrics;
   }
@@ -283,7 +304,8 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
 
   // Same log, same config: identical metrics.json, landmarks.csv and map; the recorded config
   // reproduces the run.
-  const RunResult b = run("run " + dir + "/s.rawlog -o " + dir + "/b -q --no-pictures --config " + dir + "/a/config_used.yaml");
+  const RunResult b = run("run " + dir + "/s.rawlog -o " + dir + "/b -q --no-pictures --config " +
+                          dir + "/a/config_used.yaml");
   ASSERT_EQ(b.exit_code, 0) << b.output;
   EXPECT_EQ(readFile(dir + "/a/metrics.json"), readFile(dir + "/b/metrics.json"));
   EXPECT_EQ(readFile(dir + "/a/landmarks.csv"), readFile(dir + "/b/landmarks.csv"));
@@ -294,8 +316,8 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
     std::ofstream cfg(dir + "/coarse.yaml");
     cfg << "mapping:\n  resolution_m: 0.2\nlandmarks:\n  policy: seen-count\n";
   }
-  const RunResult c = run("run " + dir + "/s.rawlog -o " + dir + "/c -q --no-pictures --config " + dir +
-                          "/coarse.yaml --policy wta-lrc");
+  const RunResult c = run("run " + dir + "/s.rawlog -o " + dir + "/c -q --no-pictures --config " +
+                          dir + "/coarse.yaml --policy wta-lrc");
   ASSERT_EQ(c.exit_code, 0) << c.output;
   EXPECT_NE(readFile(dir + "/c/metrics.json").find("\"resolution_m\": 0.2"), std::string::npos);
   EXPECT_NE(readFile(dir + "/c/metrics.json").find("\"policy\": \"wta-lrc\""), std::string::npos);
@@ -308,7 +330,8 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
     std::ofstream cfg(dir + "/typo.yaml");
     cfg << "mapping:\n  resolutoin_m: 0.1\n";
   }
-  const RunResult typo = run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures --config " + dir + "/typo.yaml");
+  const RunResult typo = run("run " + dir + "/s.rawlog -o " + dir +
+                             "/a -q --no-pictures --config " + dir + "/typo.yaml");
   EXPECT_EQ(typo.exit_code, 1);
   EXPECT_NE(typo.error.find("resolutoin_m"), std::string::npos) << typo.error;
   // Truncated log: the first half of the gzip stream.
@@ -331,8 +354,12 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
   EXPECT_EQ(junk.exit_code, 1) << junk.output;
   EXPECT_NE(junk.error.find("junk.rawlog"), std::string::npos) << junk.error;
   // Output "folder" that is a file.
-  { std::ofstream f(dir + "/plainfile"); f << "x"; }
-  const RunResult unwritable = run("run " + dir + "/s.rawlog -o " + dir + "/plainfile -q --no-pictures");
+  {
+    std::ofstream f(dir + "/plainfile");
+    f << "x";
+  }
+  const RunResult unwritable =
+      run("run " + dir + "/s.rawlog -o " + dir + "/plainfile -q --no-pictures");
   EXPECT_EQ(unwritable.exit_code, 1);
   EXPECT_NE(unwritable.error.find("plainfile"), std::string::npos) << unwritable.error;
   EXPECT_EQ(readFile(dir + "/plainfile"), "x");
@@ -342,13 +369,18 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
 }
 
 TEST(TwocamCli, RunDrawsPictures) {
-  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "no /usr/bin/python3: pictures need Debian's python3-matplotlib";
+  if (!fs::exists("/usr/bin/python3"))
+    GTEST_SKIP() << "no /usr/bin/python3: pictures need Debian's python3-matplotlib";
   const std::string dir = test::makeTempDir("cli_run_pictures");
-  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 12 --seed 5 -q").exit_code, 0);
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 12 --seed 5 -q")
+                .exit_code,
+            0);
   const RunResult r = run("run " + dir + "/s.rawlog -o " + dir + "/out -q");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  if (r.error.find("No module named") != std::string::npos) GTEST_SKIP() << "matplotlib missing: " << r.error;
-  for (const char* f : {"map_topdown.png", "confidence_histogram.png", "timings.png", "sample_frame.png"}) {
+  if (r.error.find("No module named") != std::string::npos)
+    GTEST_SKIP() << "matplotlib missing: " << r.error;
+  for (const char* f :
+       {"map_topdown.png", "confidence_histogram.png", "timings.png", "sample_frame.png"}) {
     EXPECT_TRUE(fs::exists(dir + "/out/pictures/" + f)) << f << "\n" << r.output;
   }
 }

@@ -10,13 +10,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <sstream>
-#include <string>
-#include <vector>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "frontend/cv_interop.h"
 #include "frontend/rectify.h"
@@ -67,7 +66,8 @@ std::string copyMicro(const std::string& micro_mav0, const std::string& dir, int
     }
   }
   fs::permissions(mav0, fs::perms::owner_all, fs::perm_options::add);
-  for (const auto& e : fs::recursive_directory_iterator(mav0)) fs::permissions(e.path(), fs::perms::owner_all, fs::perm_options::add);
+  for (const auto& e : fs::recursive_directory_iterator(mav0))
+    fs::permissions(e.path(), fs::perms::owner_all, fs::perm_options::add);
   return mav0.string();
 }
 
@@ -106,7 +106,8 @@ RowStats rowOffsets(const std::vector<std::pair<ImageU8, ImageU8>>& pairs) {
   RowStats s;
   s.matches = abs_dv.size();
   if (abs_dv.empty()) return s;
-  std::nth_element(abs_dv.begin(), abs_dv.begin() + static_cast<long>(abs_dv.size() / 2), abs_dv.end());
+  std::nth_element(
+      abs_dv.begin(), abs_dv.begin() + static_cast<long>(abs_dv.size() / 2), abs_dv.end());
   s.median_abs_dv_px = abs_dv[abs_dv.size() / 2];
   return s;
 }
@@ -140,8 +141,10 @@ TEST(ImportEuroc, ImportsTheMicroSequenceRectifiedWithoutOdometry) {
   io::EurocStereoIndex index;
   ASSERT_TRUE(io::loadEurocStereoIndex(mav0, &index).isOk());
   frontend::StereoRectifier rectifier;
-  ASSERT_TRUE(frontend::StereoRectifier::create(cam0, cam1, frontend::RectifyOptions(), &rectifier).isOk());
-  EXPECT_NE(r.output.find("imported " + std::to_string(index.t_ns.size()) + " of " + std::to_string(index.t_ns.size())),
+  ASSERT_TRUE(
+      frontend::StereoRectifier::create(cam0, cam1, frontend::RectifyOptions(), &rectifier).isOk());
+  EXPECT_NE(r.output.find("imported " + std::to_string(index.t_ns.size()) + " of " +
+                          std::to_string(index.t_ns.size())),
             std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("dropped 0 cam0 and 0 cam1"), std::string::npos) << r.output;
@@ -157,7 +160,8 @@ TEST(ImportEuroc, ImportsTheMicroSequenceRectifiedWithoutOdometry) {
   EXPECT_NEAR(got.cx_px, want.cx_px, kRigTol);
   EXPECT_NEAR(got.cy_px, want.cy_px, kRigTol);
   EXPECT_NEAR(got.baseline_m, want.baseline_m, kRigTol);
-  EXPECT_TRUE(got.T_b_cl.isApprox(want.T_b_cl, kRigTol)) << got.T_b_cl.matrix() << "\n vs \n" << want.T_b_cl.matrix();
+  EXPECT_TRUE(got.T_b_cl.isApprox(want.T_b_cl, kRigTol)) << got.T_b_cl.matrix() << "\n vs \n"
+                                                         << want.T_b_cl.matrix();
   // The rectified left camera's optical axis stays close to the raw cam0's (Bouguet splits the
   // rotation between both cameras; EuRoC's cameras are nearly parallel).
   constexpr double kMaxRectifyingRotationRad = 0.05;
@@ -180,7 +184,8 @@ TEST(ImportEuroc, ImportsTheMicroSequenceRectifiedWithoutOdometry) {
     ASSERT_TRUE(frontend::loadGrey(index.right_paths[k], &raw_right).isOk());
     if (k == 0) {
       ASSERT_TRUE(rectifier.rectify(raw_left, raw_right, &left, &right).isOk());
-      EXPECT_EQ(f.stereo.left.data, left.data) << "imported images are the rectifier's output, losslessly";
+      EXPECT_EQ(f.stereo.left.data, left.data)
+          << "imported images are the rectifier's output, losslessly";
       EXPECT_EQ(f.stereo.right.data, right.data);
     }
     if (k % 6 == 0) {
@@ -194,8 +199,10 @@ TEST(ImportEuroc, ImportsTheMicroSequenceRectifiedWithoutOdometry) {
 
   const RowStats raw = rowOffsets(raw_pairs);
   const RowStats imported = rowOffsets(imported_pairs);
-  std::cout << "[ import  ] " << raw_pairs.size() << " pairs; raw: " << raw.matches << " matches, median |dv| = " << raw.median_abs_dv_px
-            << " px; imported log: " << imported.matches << " matches, median |dv| = " << imported.median_abs_dv_px << " px\n";
+  std::cout << "[ import  ] " << raw_pairs.size() << " pairs; raw: " << raw.matches
+            << " matches, median |dv| = " << raw.median_abs_dv_px
+            << " px; imported log: " << imported.matches
+            << " matches, median |dv| = " << imported.median_abs_dv_px << " px\n";
   ASSERT_GT(imported.matches, 200u);
   constexpr double kMaxMedianRowOffsetPx = 0.3;  // as in rectify_test's acceptance threshold
   EXPECT_LT(imported.median_abs_dv_px, kMaxMedianRowOffsetPx);
@@ -206,7 +213,8 @@ TEST(ImportEuroc, AcceptsMav0ItselfAndMaxFrames) {
   TWOCAM_REQUIRE_SHARED_DATA(data);
   const std::string dir = test::makeTempDir("import_euroc_mav0");
   const std::string log = dir + "/three.rawlog";
-  const RunResult r = run("import-euroc " + data + "/euroc_micro/mav0 -o " + log + " --max-frames 3 --quiet");
+  const RunResult r =
+      run("import-euroc " + data + "/euroc_micro/mav0 -o " + log + " --max-frames 3 --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output << r.error;
   EXPECT_TRUE(r.error.empty()) << "--quiet: no progress bar, got: " << r.error;
   EXPECT_NE(r.output.find("imported 3 of"), std::string::npos) << r.output;
@@ -222,7 +230,9 @@ TEST(ImportEuroc, AcceptsMav0ItselfAndMaxFrames) {
   EXPECT_TRUE(rs.isOk()) << rs.message();
   EXPECT_EQ(n, 3);
 
-  expectError(run("import-euroc " + data + "/euroc_micro -o " + dir + "/zero.rawlog --max-frames 0 -q"), "--max-frames 0");
+  expectError(
+      run("import-euroc " + data + "/euroc_micro -o " + dir + "/zero.rawlog --max-frames 0 -q"),
+      "--max-frames 0");
   EXPECT_FALSE(fs::exists(dir + "/zero.rawlog"));
 }
 
@@ -244,7 +254,8 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
   ASSERT_FALSE(log_bytes.empty());
   auto expectUntouched = [&](const std::string& what) {
     EXPECT_EQ(readFile(log), log_bytes) << what << ": the earlier log changed";
-    EXPECT_EQ(readFile(images + "/left_000001.png"), image_bytes) << what << ": the earlier images changed";
+    EXPECT_EQ(readFile(images + "/left_000001.png"), image_bytes)
+        << what << ": the earlier images changed";
     EXPECT_FALSE(fs::exists(log + ".partial")) << what;
     EXPECT_FALSE(fs::exists(images + ".partial")) << what;
   };
@@ -264,7 +275,8 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
   }
   {
     const std::string mav0 = copyMicro(micro, dir + "/bad_yaml", 3);
-    std::ofstream(mav0 + "/cam0/sensor.yaml") << "%YAML:1.0\nresolution: [752, 480\nintrinsics: {{{\n\x01\x02garbage";
+    std::ofstream(mav0 + "/cam0/sensor.yaml")
+        << "%YAML:1.0\nresolution: [752, 480\nintrinsics: {{{\n\x01\x02garbage";
     expectError(run("import-euroc " + dir + "/bad_yaml/seq -o " + log + " -q"), "cam0/sensor.yaml");
     expectUntouched("corrupt sensor.yaml");
   }
@@ -273,14 +285,16 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
     std::string name;
     for (const auto& e : fs::directory_iterator(mav0 + "/cam1/data")) name = e.path().string();
     fs::remove(name);
-    expectError(run("import-euroc " + dir + "/no_image/seq -o " + log + " -q"), fs::path(name).filename().string());
+    expectError(run("import-euroc " + dir + "/no_image/seq -o " + log + " -q"),
+                fs::path(name).filename().string());
     expectUntouched("missing image");
   }
   {
     // The third pair's right image has the wrong size: two frames are written before the error.
     const std::string mav0 = copyMicro(micro, dir + "/small_image", 3);
     std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(mav0 + "/cam1/data")) names.push_back(e.path().string());
+    for (const auto& e : fs::directory_iterator(mav0 + "/cam1/data"))
+      names.push_back(e.path().string());
     std::sort(names.begin(), names.end());
     ASSERT_EQ(names.size(), 3u);
     ASSERT_TRUE(cv::imwrite(names[2], cv::Mat(240, 376, CV_8UC1, cv::Scalar(128))));
@@ -294,12 +308,14 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
     std::string name;
     for (const auto& e : fs::directory_iterator(mav0 + "/cam0/data")) name = e.path().string();
     std::ofstream(name, std::ios::binary | std::ios::trunc) << "not a png";
-    expectError(run("import-euroc " + dir + "/corrupt_image/seq -o " + log + " -q"), fs::path(name).filename().string());
+    expectError(run("import-euroc " + dir + "/corrupt_image/seq -o " + log + " -q"),
+                fs::path(name).filename().string());
     expectUntouched("corrupt image");
   }
   {
     const std::string good = dir + "/good/seq";
-    expectError(run("import-euroc " + good + " -o " + dir + "/no_such_folder/out.rawlog -q"), "does not exist");
+    expectError(run("import-euroc " + good + " -o " + dir + "/no_such_folder/out.rawlog -q"),
+                "does not exist");
     std::ofstream(dir + "/a_file") << "x";
     expectError(run("import-euroc " + good + " -o " + dir + "/a_file/out.rawlog -q"), "a_file");
     expectError(run("import-euroc " + good + " -o " + dir + " -q"), "is a folder");
