@@ -9,7 +9,7 @@
 #include "io/run_writer.h"
 #include "pipeline/run.h"
 #include "progress.h"
-#include "run_pictures.h"
+#include "run_output.h"
 #include "sim/world_io.h"
 #include "simulate_command.h"
 
@@ -102,7 +102,7 @@ int runRun(const RunArgs& args) {
             << std::endl;
   if (!args.no_pictures) {
     std::cout << "pictures:" << std::endl;
-    drawPictures(args.output_dir);
+    drawPictures(writer->outputDir());
   }
   return 0;
 }

@@ -1,4 +1,4 @@
-#include "run_pictures.h"
+#include "run_output.h"
 
 #include <spawn.h>
 #include <sys/wait.h>
