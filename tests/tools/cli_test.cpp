@@ -477,6 +477,26 @@ TEST(TwocamCli, RunSaysWhyThereIsNoMapEvaluation) {
   EXPECT_FALSE(fs::exists(dir + "/bad/map_eval_voxels.csv"));
 }
 
+TEST(TwocamCli, RunRefusesANonFiniteGroundTruthPose) {
+  // Before: the NaN reached the distinct-points count (a float-to-int conversion of NaN,
+  // undefined behaviour that UBSan aborts on; Release went on with exit 0).
+  const std::string dir = test::makeTempDir("cli_run_nan_truth");
+  ASSERT_EQ(
+      run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 6 --seed 5 -q").exit_code,
+      0);
+  ASSERT_TRUE(rewriteLog(dir + "/s.rawlog", dir + "/nan.rawlog", [](io::LogFrame* f) {
+                if (f->index == 3 && f->ground_truth) {
+                  f->ground_truth->T_w_b.translation().y() =
+                      std::numeric_limits<double>::quiet_NaN();
+                }
+              }).isOk());
+  const RunResult r = run("run " + dir + "/nan.rawlog -o " + dir + "/out -q --no-pictures");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.error.find("frame 3: the ground-truth pose is not finite"), std::string::npos)
+      << r.error;
+  EXPECT_FALSE(fs::exists(dir + "/out"));
+}
+
 TEST(TwocamCli, RunDrawsPictures) {
   if (!fs::exists("/usr/bin/python3"))
     GTEST_SKIP() << "no /usr/bin/python3: pictures need Debian's python3-matplotlib";
