@@ -8,12 +8,8 @@ namespace {
 
 bool isScalar(const Json& v) { return !v.is_object() && !v.is_array(); }
 
-bool allScalar(const Json& v) {
-  for (const auto& item : v) {
-    if (!isScalar(item)) return false;
-  }
-  return true;
-}
+/// Containers with more members than this are broken over lines (below the top level).
+constexpr size_t kMaxInlineMembers = 12;
 
 void writeScalar(const Json& v, int digits, std::string* out) {
   if (v.is_number_float()) {
@@ -43,7 +39,7 @@ void write(const Json& v, int digits, int depth, std::string* out) {
     *out += close;
     return;
   }
-  const bool inline_members = allScalar(v);
+  const bool inline_members = depth > 0 && v.size() <= kMaxInlineMembers;
   const std::string indent(static_cast<size_t>(2 * (depth + 1)), ' ');
   *out += open;
   bool first = true;

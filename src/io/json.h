@@ -6,8 +6,10 @@
 /// versions: floating-point numbers are printed with a fixed number of significant digits
 /// (printf "%.<digits>g", as TwoCam's writers always did: metrics.json 10, timing.json 6) instead
 /// of the shortest round-trip form, and a non-finite number is written as null (JSON has no NaN).
-/// Layout: an object or array whose members are all scalars goes on one line
-/// (`{"a": 1, "b": 2}`), any other is broken over lines with two spaces of indent per level.
+/// Layout, that of TwoCam's hand-written JSON before it: the top-level value and any object or
+/// array of more than 12 members are broken over lines (two spaces of indent per level), every
+/// other one goes on one line (`"mapping": {"resolution_m": 0.05, "occupied_voxels": 14256}`).
+/// So a metrics.json differs from an earlier version's only in the lines of keys that changed.
 
 #include <nlohmann/json.hpp>
 #include <string>

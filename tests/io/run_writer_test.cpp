@@ -55,7 +55,7 @@ TEST(RunWriter, ReplacesAnEarlierRunOnlyOnCommit) {
   EXPECT_EQ(readFile((out / "metrics.json").string()), "{\"old\": 1}\n");
   ASSERT_TRUE(w->commit().isOk());
   const auto t = tree(out);
-  EXPECT_EQ(t.at("metrics.json"), "{\"new\": 2}\n");
+  EXPECT_EQ(t.at("metrics.json"), "{\n  \"new\": 2\n}\n");
   EXPECT_EQ(t.at("landmarks.csv"), "id\n");
   EXPECT_EQ(t.count("stale.csv"), 0u);  // the folder is replaced as a whole
   EXPECT_EQ(t.count("sample_frame/left.png"), 0u);
@@ -135,12 +135,22 @@ TEST(Json, PrintsTenSignificantDigitsAndNullForNonFinite) {
                   {"zero", 0.0},
                   {"s", "a\"b"},
                   {"nested", {{"x", 1.5}, {"list", Json::array({1, 2})}}}};
-  EXPECT_EQ(toJsonText(j, 10),
-            "{\n  \"a\": 0.3,\n  \"b\": 2440.580556,\n  \"n\": null,\n  \"i\": 49863,\n"
-            "  \"zero\": 0,\n  \"s\": \"a\\\"b\",\n  \"nested\": {\n    \"x\": 1.5,\n"
-            "    \"list\": [1, 2]\n  }\n}\n");
+  EXPECT_EQ(
+      toJsonText(j, 10),
+      "{\n  \"a\": 0.3,\n  \"b\": 2440.580556,\n  \"n\": null,\n  \"i\": 49863,\n"
+      "  \"zero\": 0,\n  \"s\": \"a\\\"b\",\n  \"nested\": {\"x\": 1.5, \"list\": [1, 2]}\n}\n");
   EXPECT_EQ(toJsonText(Json(std::numeric_limits<double>::infinity()), 10), "null\n");
   EXPECT_EQ(toJsonText(Json(12.3456789), 6), "12.3457\n");
+}
+
+TEST(Json, BreaksContainersOfMoreThanTwelveMembersOverLines) {
+  Json small = Json::object(), big = Json::object();
+  for (int i = 0; i < 12; ++i) small["k" + std::to_string(i)] = i;
+  for (int i = 0; i < 13; ++i) big["k" + std::to_string(i)] = i;
+  const std::string text = toJsonText(Json{{"small", small}, {"big", big}}, 10);
+  EXPECT_NE(text.find("\"small\": {\"k0\": 0, \"k1\": 1,"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"big\": {\n    \"k0\": 0,\n    \"k1\": 1,"), std::string::npos) << text;
+  EXPECT_NE(text.find("\n    \"k12\": 12\n  }\n}\n"), std::string::npos) << text;
 }
 
 }  // namespace
