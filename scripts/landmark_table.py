@@ -59,25 +59,35 @@ def main():
     if "--texture" in flags:
         texture_table(out)
         return
-    print("| world | odometry noise | policy | confirmed | correct | precision | precision (judged) "
-          "| median error [mm] | frames to confirm |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| world | odometry noise | policy | confirmed | correct | precision | precision (strict) "
+          "| precision (judged) | correct distinct points | median error [mm] | frames to confirm |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for w, n, p, metrics in runs(out):
         if metrics is None:
-            print(f"| {w} | x{n} | {p} | missing | | | | | |")
+            print(f"| {w} | x{n} | {p} | missing | | | | | | | |")
             continue
         lm = metrics["landmarks"]
         err = lm.get("median_error_m")
-        # From the counts, so the table reads the same from any version's metrics.json:
-        # METRICS.md precision = correct / confirmed; "judged" leaves out landmarks whose
-        # anchor pixel has no ground truth (depth edges).
-        conf, corr = lm["confirmed"], lm["correct_confirmed"]
+        # From the counts, so the table reads the same from any version's metrics.json.
+        # METRICS.md precision = correct / confirmed, where a landmark on a depth edge (anchor
+        # pixel without ground truth) is correct on the near or the far surface ("Depth edges",
+        # 2026-12-02); strict counts every such landmark as wrong; "judged" leaves them out.
+        # Runs from before that rule have correct_confirmed = the strict count.
+        conf = lm["confirmed"]
+        if "correct_confirmed_strict" in lm:
+            strict, corr = lm["correct_confirmed_strict"], lm["correct_confirmed"]
+        else:
+            strict = lm["correct_confirmed"]
+            corr = strict + lm.get("unjudged_near_side", 0) + lm.get("unjudged_far_side", 0)
         judged = conf - lm.get("unjudged_confirmed", 0)
-        lm["precision"] = 100.0 * corr / conf if conf else None
-        lm["precision_judged"] = 100.0 * corr / judged if judged else None
-        print(f"| {w} | x{n} | {p} | {lm['confirmed']} | {lm['correct_confirmed']} "
-              f"| {fmt(lm.get('precision'), '{:.2f} %')} "
-              f"| {fmt(lm.get('precision_judged'), '{:.2f} %')} "
+        precision = 100.0 * corr / conf if conf else None
+        precision_strict = 100.0 * strict / conf if conf else None
+        precision_judged = 100.0 * strict / judged if judged else None
+        print(f"| {w} | x{n} | {p} | {conf} | {corr} "
+              f"| {fmt(precision, '{:.2f} %')} "
+              f"| {fmt(precision_strict, '{:.2f} %')} "
+              f"| {fmt(precision_judged, '{:.2f} %')} "
+              f"| {fmt(lm.get('correct_distinct_points'), '{}')} "
               f"| {fmt(None if err is None else 1000 * err, '{:.1f}')} "
               f"| {fmt(lm.get('frames_to_confirm_median'), '{:.0f}')} |")
 

@@ -6,7 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libopencv-dev libmrpt-dev libceres-dev liboctomap-dev
-  libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev
+  libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev nlohmann-json3-dev
   # Headless rendering: EGL with Mesa's software rasteriser (llvmpipe).
   libegl1 libegl-mesa0 libgl1-mesa-dri libgles2
   # Plots from the CSV/JSON outputs.

@@ -6,6 +6,7 @@
 #include <limits>
 #include <sstream>
 
+#include "common/stats.h"
 #include "landmarks/landmark_model.h"
 
 namespace twocam::eval {
@@ -16,24 +17,9 @@ constexpr double kTruthTolPx = 1.0;
 /// Confidence thresholds of the calibration table.
 constexpr double kCalibrationThresholds[] = {0.0, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99};
 
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const size_t k = std::min(
-      v.size() - 1, static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1) + 0.5)));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
 double percent(int64_t num, int64_t den) {
   return den > 0 ? 100.0 * static_cast<double>(num) / static_cast<double>(den)
                  : std::numeric_limits<double>::quiet_NaN();
-}
-
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream s;
-  s << std::setprecision(10) << v;
-  return s.str();
 }
 
 }  // namespace
@@ -41,10 +27,15 @@ std::string num(double v) {
 int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double radius_m) {
   // Greedy in the given order: a point within radius_m of a kept representative joins it. A hash
   // grid of cell radius_m finds the candidates in the 27 neighbouring cells.
+  // Cell indices are clamped before the conversion (a float beyond int's range converts with
+  // undefined behaviour): far points share the border cell and are still told apart by distance.
+  constexpr double kMaxCell = 1 << 30;
+  const auto index = [&](float x) {
+    return static_cast<int>(
+        std::clamp(std::floor(static_cast<double>(x) / radius_m), -kMaxCell, kMaxCell));
+  };
   const auto cell = [&](const Eigen::Vector3f& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / radius_m)),
-                           static_cast<int>(std::floor(p.y() / radius_m)),
-                           static_cast<int>(std::floor(p.z() / radius_m)));
+    return Eigen::Vector3i(index(p.x()), index(p.y()), index(p.z()));
   };
   const auto key = [](const Eigen::Vector3i& c) {
     return (static_cast<uint64_t>(static_cast<uint32_t>(c.x())) * 73856093u) ^
@@ -55,6 +46,7 @@ int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double r
   const double r2 = radius_m * radius_m;
   int64_t count = 0;
   for (const Eigen::Vector3f& p : points) {
+    if (!p.allFinite()) continue;  // documented skip: no place, no point
     const Eigen::Vector3i c = cell(p);
     bool found = false;
     for (int dx = -1; dx <= 1 && !found; ++dx) {
@@ -102,6 +94,18 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
                                    const landmarks::LandmarkDatabase& db,
                                    const ImageF32& gt_depth,
                                    const Eigen::Isometry3d& T_w_b_true) {
+  return addFrame(hyps, left, report, db.landmarks(), gt_depth, T_w_b_true);
+}
+
+Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
+                                   const ImageU8& left,
+                                   const landmarks::FrameReport& report,
+                                   const std::vector<landmarks::Landmark>& slots,
+                                   const ImageF32& gt_depth,
+                                   const Eigen::Isometry3d& T_w_b_true) {
+  if (Status s = checkGroundTruthPose(T_w_b_true); !s) {
+    return Status::error("frame " + std::to_string(report.frame) + ": " + s.message());
+  }
   if (Status s = disparityFromDepth(gt_depth, rig_, &gt_); !s) return s;
   const auto gt_at = [&](int u, int v, float* d, float* z) {
     if (u < 0 || v < 0 || u >= gt_.d_px.width || v >= gt_.d_px.height || !gt_.valid(u, v))
@@ -124,7 +128,7 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
   }
   for (uint64_t id : report.removed_ids) anchors_.erase(id);
   for (uint32_t slot : report.created_slots) {
-    const landmarks::Landmark& l = db.landmarks()[slot];
+    const landmarks::Landmark& l = slots[slot];
     AnchorTruth t;
     const int u0 = static_cast<int>(l.anchor.u_px), v0 = static_cast<int>(l.anchor.v_px);
     t.valid = gt_at(u0, v0, &t.d_gt, &t.z_gt);
@@ -204,7 +208,24 @@ double LandmarkEvaluator::errorM(const landmarks::Landmark& l) const {
   return (p_cl - ray * static_cast<double>(it->second.z_gt)).norm();
 }
 
+LandmarkEvaluator::EdgeSide LandmarkEvaluator::edgeSide(const landmarks::Landmark& l) const {
+  const auto it = anchors_.find(l.id);
+  if (it == anchors_.end()) return EdgeSide::kNeither;
+  const Eigen::Isometry3d T_cl_w =
+      landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
+  Eigen::Vector3d uvd;
+  const bool projects = landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd) &&
+                        std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px) <= kTruthTolPx;
+  if (projects && std::abs(uvd.z() - it->second.d_near) <= kTruthTolPx) return EdgeSide::kNear;
+  if (projects && std::abs(uvd.z() - it->second.d_far) <= kTruthTolPx) return EdgeSide::kFar;
+  return EdgeSide::kNeither;
+}
+
 LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db) const {
+  return finish(db.landmarks());
+}
+
+LandmarkMetrics LandmarkEvaluator::finish(const std::vector<landmarks::Landmark>& slots) const {
   LandmarkMetrics m;
   m.hypotheses_total = hyp_total_;
   m.hypotheses_judged = hyp_judged_;
@@ -221,7 +242,7 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
   m.by_texture = {{"plain", 0.0, kPlainTextureGrey},
                   {"faint", kPlainTextureGrey, kFaintTextureGrey},
                   {"textured", kFaintTextureGrey, kInf}};
-  for (const landmarks::Landmark& l : db.landmarks()) {
+  for (const landmarks::Landmark& l : slots) {
     if (l.state == landmarks::LandmarkState::kFree) continue;
     const int v = verdict(l);
     if (v >= 0) {
@@ -248,29 +269,29 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
     frames_to_confirm.push_back(static_cast<double>(l.confirmed_frame - l.first_frame));
     if (v < 0) {
       ++m.unjudged_confirmed;
-      const auto it = anchors_.find(l.id);
-      const Eigen::Isometry3d T_cl_w =
-          landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse();
-      Eigen::Vector3d uvd;
-      const bool projects =
-          it != anchors_.end() && landmarks::projectStereo(rig_, T_cl_w * l.p_w, &uvd) &&
-          std::hypot(uvd.x() - l.anchor.u_px, uvd.y() - l.anchor.v_px) <= kTruthTolPx;
-      if (projects && std::abs(uvd.z() - it->second.d_near) <= kTruthTolPx) {
-        ++m.unjudged_near_side;
-      } else if (projects && std::abs(uvd.z() - it->second.d_far) <= kTruthTolPx) {
-        ++m.unjudged_far_side;
-      } else {
-        ++m.unjudged_neither;
+      switch (edgeSide(l)) {
+        case EdgeSide::kNear:
+          ++m.unjudged_near_side;
+          break;
+        case EdgeSide::kFar:
+          ++m.unjudged_far_side;
+          break;
+        case EdgeSide::kNeither:
+          ++m.unjudged_neither;
+          break;
       }
       continue;
     }
-    m.correct_confirmed += v;
+    m.correct_confirmed_strict += v;
     if (v == 1) correct_points.push_back(anchors_.at(l.id).p_true_w);
     errors.push_back(errorM(l));
   }
   m.correct_distinct_points = countDistinctPoints(correct_points, kSamePointM);
+  // METRICS.md "Depth edges": an unjudged landmark on the near or the far surface is correct.
+  m.correct_confirmed = m.correct_confirmed_strict + m.unjudged_near_side + m.unjudged_far_side;
   m.precision = percent(m.correct_confirmed, m.confirmed);
-  m.precision_judged = percent(m.correct_confirmed, m.confirmed - m.unjudged_confirmed);
+  m.precision_strict = percent(m.correct_confirmed_strict, m.confirmed);
+  m.precision_judged = percent(m.correct_confirmed_strict, m.confirmed - m.unjudged_confirmed);
   m.median_error_m = quantile(errors, 0.5);
   m.p90_error_m = quantile(errors, 0.9);
   m.frames_to_confirm_median = quantile(frames_to_confirm, 0.5);
@@ -279,55 +300,71 @@ LandmarkMetrics LandmarkEvaluator::finish(const landmarks::LandmarkDatabase& db)
   return m;
 }
 
-std::string toJson(const LandmarkMetrics& m, const std::string& indent) {
-  std::ostringstream s;
-  const std::string i1 = indent + "  ";
-  const std::string i2 = indent + "    ";
-  s << "{\n";
-  s << i1 << "\"hypotheses\": {\"total\": " << m.hypotheses_total
-    << ", \"judged\": " << m.hypotheses_judged
-    << ", \"true_fraction\": " << num(m.hypotheses_true_fraction) << "},\n";
+io::Json toJson(const LandmarkMetrics& m) {
+  using io::Json;
+  using io::numberOrNull;
+  Json j = Json::object();
+  j["hypotheses"] = {{"total", m.hypotheses_total},
+                     {"judged", m.hypotheses_judged},
+                     {"true_fraction", numberOrNull(m.hypotheses_true_fraction)}};
   const StereoMetrics& f = m.frontend;
-  s << i1 << "\"frontend\": {\"recall_at_k\": " << num(f.recall_at_k)
-    << ", \"recall_at_1\": " << num(f.recall_at_1) << ", \"bad1\": " << num(f.bad1)
-    << ", \"bad2\": " << num(f.bad2) << ", \"avgerr\": " << num(f.avgerr)
-    << ", \"density\": " << num(f.density) << ", \"k\": " << f.k
-    << ", \"mean_hypotheses\": " << num(f.mean_hypotheses) << ", \"points\": " << f.points
-    << ", \"evaluated\": " << f.evaluated
-    << ", \"one_answer_fraction\": " << num(f.one_answer_fraction)
-    << ", \"one_answer_precision\": " << num(f.one_answer_precision) << "},\n";
-  s << i1 << "\"landmarks\": {\n";
-  s << i2 << "\"precision\": " << num(m.precision) << ",\n";
-  s << i2 << "\"precision_judged\": " << num(m.precision_judged) << ",\n";
-  s << i2 << "\"correct_confirmed\": " << m.correct_confirmed << ",\n";
-  s << i2 << "\"correct_distinct_points\": " << m.correct_distinct_points << ",\n";
-  s << i2 << "\"confirmed\": " << m.confirmed << ",\n";
-  s << i2 << "\"unjudged_confirmed\": " << m.unjudged_confirmed << ",\n";
-  s << i2 << "\"unjudged_near_side\": " << m.unjudged_near_side << ",\n";
-  s << i2 << "\"unjudged_far_side\": " << m.unjudged_far_side << ",\n";
-  s << i2 << "\"unjudged_neither\": " << m.unjudged_neither << ",\n";
-  s << i2 << "\"candidates\": " << m.candidates << ",\n";
-  s << i2 << "\"median_error_m\": " << num(m.median_error_m) << ",\n";
-  s << i2 << "\"p90_error_m\": " << num(m.p90_error_m) << ",\n";
-  s << i2 << "\"frames_to_confirm_median\": " << num(m.frames_to_confirm_median) << "\n";
-  s << i1 << "},\n";
-  s << i1 << "\"calibration\": [";
-  for (size_t k = 0; k < m.calibration.size(); ++k) {
-    const CalibrationRow& r = m.calibration[k];
-    s << (k ? ", " : "") << "{\"threshold\": " << num(r.threshold)
-      << ", \"landmarks\": " << r.landmarks << ", \"correct\": " << r.correct
-      << ", \"precision\": " << num(r.precision) << "}";
+  j["frontend"] = {{"recall_at_k", numberOrNull(f.recall_at_k)},
+                   {"recall_at_1", numberOrNull(f.recall_at_1)},
+                   {"bad1", numberOrNull(f.bad1)},
+                   {"bad2", numberOrNull(f.bad2)},
+                   {"avgerr", numberOrNull(f.avgerr)},
+                   {"density", numberOrNull(f.density)},
+                   {"k", f.k},
+                   {"mean_hypotheses", numberOrNull(f.mean_hypotheses)},
+                   {"points", f.points},
+                   {"evaluated", f.evaluated},
+                   {"one_answer_fraction", numberOrNull(f.one_answer_fraction)},
+                   {"one_answer_precision", numberOrNull(f.one_answer_precision)}};
+  j["landmarks"] = {{"precision", numberOrNull(m.precision)},
+                    {"precision_strict", numberOrNull(m.precision_strict)},
+                    {"precision_judged", numberOrNull(m.precision_judged)},
+                    {"correct_confirmed", m.correct_confirmed},
+                    {"correct_confirmed_strict", m.correct_confirmed_strict},
+                    {"correct_distinct_points", m.correct_distinct_points},
+                    {"confirmed", m.confirmed},
+                    {"unjudged_confirmed", m.unjudged_confirmed},
+                    {"unjudged_near_side", m.unjudged_near_side},
+                    {"unjudged_far_side", m.unjudged_far_side},
+                    {"unjudged_neither", m.unjudged_neither},
+                    {"candidates", m.candidates},
+                    {"median_error_m", numberOrNull(m.median_error_m)},
+                    {"p90_error_m", numberOrNull(m.p90_error_m)},
+                    {"frames_to_confirm_median", numberOrNull(m.frames_to_confirm_median)}};
+  Json calibration = Json::array();
+  for (const CalibrationRow& r : m.calibration) {
+    calibration.push_back({{"threshold", numberOrNull(r.threshold)},
+                           {"landmarks", r.landmarks},
+                           {"correct", r.correct},
+                           {"precision", numberOrNull(r.precision)}});
   }
-  s << "],\n";
-  s << i1 << "\"by_texture\": [";
-  for (size_t k = 0; k < m.by_texture.size(); ++k) {
-    const TextureRow& r = m.by_texture[k];
-    s << (k ? ", " : "") << "{\"class\": \"" << r.name << "\", \"min_grey\": " << num(r.min_grey)
-      << ", \"max_grey\": " << num(r.max_grey) << ", \"confirmed\": " << r.confirmed
-      << ", \"correct\": " << r.correct << ", \"unjudged\": " << r.unjudged << "}";
+  j["calibration"] = calibration;
+  Json by_texture = Json::array();
+  for (const TextureRow& r : m.by_texture) {
+    by_texture.push_back({{"class", r.name},
+                          {"min_grey", numberOrNull(r.min_grey)},
+                          {"max_grey", numberOrNull(r.max_grey)},
+                          {"confirmed", r.confirmed},
+                          {"correct", r.correct},
+                          {"unjudged", r.unjudged}});
   }
-  s << "]\n" << indent << "}";
-  return s.str();
+  j["by_texture"] = by_texture;
+  return j;
+}
+
+Status checkGroundTruthPose(const Eigen::Isometry3d& T_w_b_true) {
+  const Eigen::Matrix4d& M = T_w_b_true.matrix();
+  if (!M.allFinite()) return Status::error("the ground-truth pose is not finite (NaN or infinite)");
+  if (M.topRightCorner<3, 1>().cwiseAbs().maxCoeff() > kMaxGroundTruthCoordM) {
+    return Status::error("the ground-truth pose is more than " +
+                         std::to_string(static_cast<int64_t>(kMaxGroundTruthCoordM)) +
+                         " m from the origin");
+  }
+  return Status::ok();
 }
 
 }  // namespace twocam::eval

@@ -15,6 +15,7 @@
 #include "common/status.h"
 #include "eval/disparity_io.h"
 #include "eval/stereo_metrics.h"
+#include "io/json.h"
 #include "landmarks/landmark_database.h"
 
 namespace twocam::eval {
@@ -61,27 +62,36 @@ struct LandmarkMetrics {
   StereoMetrics frontend;
   // landmarks.*
   int64_t confirmed = 0;
+  /// Confirmed landmarks that are correct (METRICS.md): judged ones within 1 px of the true
+  /// disparity at the anchor, plus unjudged ones on the near or the far surface of their depth
+  /// edge (unjudged_near_side + unjudged_far_side, the "Depth edges" rule).
   int64_t correct_confirmed = 0;
+  /// Judged correct ones only: every landmark on a depth edge counts as not correct.
+  int64_t correct_confirmed_strict = 0;
   /// Distinct physical points among the correct confirmed landmarks: their true 3D points (the
   /// anchor pixel's ray at the true depth, placed with the anchor frame's true pose) merged when
   /// closer than kSamePointM. A policy that confirms the same corner again after losing it
-  /// counts each time in correct_confirmed but once here.
+  /// counts each time in correct_confirmed but once here. Counts the judged correct landmarks
+  /// (correct_confirmed_strict): one on a depth edge has no single true depth to place it at.
   int64_t correct_distinct_points = 0;
   int64_t unjudged_confirmed = 0;  ///< anchor pixel without defined ground truth (depth edge)
   /// Of the unjudged confirmed landmarks, those that reproject within 1 px of the anchor with a
   /// disparity within 1 px of the nearest (foreground) surface of the anchor's 3x3 neighbourhood,
   /// of the farthest (background) one, or of neither. Diagnostic only: a silhouette corner on the
   /// foreground is a real point, a T-junction of two depths is not, and the 3x3 ground truth
-  /// cannot tell them apart; `precision` counts all of them as not correct.
+  /// cannot tell them apart. METRICS.md "Depth edges": near and far side are correct (a point on
+  /// a real surface), neither is wrong (a mixed depth).
   int64_t unjudged_near_side = 0;
   int64_t unjudged_far_side = 0;
   int64_t unjudged_neither = 0;
-  /// Percent of confirmed landmarks that are correct (METRICS.md: correct confirmed /
-  /// confirmed). A landmark whose anchor pixel has no defined ground truth (a depth edge) is
-  /// not correct: nobody can say where it should be.
+  /// Percent of confirmed landmarks that are correct (METRICS.md: correct_confirmed /
+  /// confirmed, depth-edge landmarks judged by the near/far rule).
   double precision = 0.0;
-  /// The same over judged landmarks only (anchor with defined ground truth), to separate
-  /// wrong depths from corners on depth edges.
+  /// correct_confirmed_strict / confirmed: every depth-edge landmark counts as not correct (the
+  /// definition of `precision` before 2026-12-02).
+  double precision_strict = 0.0;
+  /// correct_confirmed_strict over judged landmarks only (anchor with defined ground truth), to
+  /// separate wrong depths from corners on depth edges.
   double precision_judged = 0.0;
   double median_error_m = 0.0;
   double p90_error_m = 0.0;
@@ -91,6 +101,13 @@ struct LandmarkMetrics {
   /// Confirmed landmarks by the texture at their anchor: plain, faint, textured.
   std::vector<TextureRow> by_texture;
 };
+
+/// A ground-truth pose farther than this from the origin is refused [m]: no simulated or
+/// recorded world is that large, and beyond it float positions lose the 2 cm of kSamePointM.
+constexpr double kMaxGroundTruthCoordM = 1e6;
+
+/// Error unless the true pose is finite and within kMaxGroundTruthCoordM of the origin.
+[[nodiscard]] Status checkGroundTruthPose(const Eigen::Isometry3d& T_w_b_true);
 
 /// Two correct landmarks whose true points are closer than this are one physical point [m]
 /// (a Harris corner re-detected from another view lands a pixel or two away: ~6 mm at 3 m).
@@ -103,16 +120,26 @@ class LandmarkEvaluator {
   /// Records the truth of this frame's hypotheses and of the landmarks created in it.
   /// `gt_depth` is the left camera's ground-truth depth of this frame and T_w_b_true the
   /// frame's true body pose (for correct_distinct_points); `left` the left image the frontend
-  /// matched (for the texture at new anchors).
-  Status addFrame(const StereoHypotheses& hyps,
-                  const ImageU8& left,
-                  const landmarks::FrameReport& report,
-                  const landmarks::LandmarkDatabase& db,
-                  const ImageF32& gt_depth,
-                  const Eigen::Isometry3d& T_w_b_true);
+  /// matched (for the texture at new anchors). Errors: a depth image that does not fit the rig,
+  /// a true pose that fails checkGroundTruthPose.
+  [[nodiscard]] Status addFrame(const StereoHypotheses& hyps,
+                                const ImageU8& left,
+                                const landmarks::FrameReport& report,
+                                const landmarks::LandmarkDatabase& db,
+                                const ImageF32& gt_depth,
+                                const Eigen::Isometry3d& T_w_b_true);
+  /// The same from the database's slots (db.landmarks()): what the evaluator reads, so tests
+  /// can hand-build it. report.created_slots index `slots`.
+  [[nodiscard]] Status addFrame(const StereoHypotheses& hyps,
+                                const ImageU8& left,
+                                const landmarks::FrameReport& report,
+                                const std::vector<landmarks::Landmark>& slots,
+                                const ImageF32& gt_depth,
+                                const Eigen::Isometry3d& T_w_b_true);
 
   /// Final metrics from the database's final state.
   [[nodiscard]] LandmarkMetrics finish(const landmarks::LandmarkDatabase& db) const;
+  [[nodiscard]] LandmarkMetrics finish(const std::vector<landmarks::Landmark>& slots) const;
 
   /// Ground-truth verdict of a landmark (for pictures and CSV): 1 correct, 0 wrong, -1 unjudged.
   [[nodiscard]] int verdict(const landmarks::Landmark& l) const;
@@ -128,6 +155,11 @@ class LandmarkEvaluator {
   [[nodiscard]] double errorM(const landmarks::Landmark& l) const;
 
  private:
+  /// Which surface of its depth edge an unjudged landmark took: it reprojects within 1 px of
+  /// its anchor pixel and its disparity is within 1 px of the near (else the far) surface's.
+  enum class EdgeSide { kNear, kFar, kNeither };
+  [[nodiscard]] EdgeSide edgeSide(const landmarks::Landmark& l) const;
+
   struct AnchorTruth {
     float d_gt = 0.0f;   ///< ground-truth disparity at the anchor pixel [px]
     float z_gt = 0.0f;   ///< ground-truth depth at the anchor pixel [m]
@@ -152,11 +184,13 @@ class LandmarkEvaluator {
 };
 
 /// Number of distinct points: greedy clustering in the given order, a point within radius_m of
-/// an earlier kept point is the same point.
+/// an earlier kept point is the same point. Non-finite points are skipped (not counted); any
+/// finite point is handled (far ones share the grid's border cells).
 int64_t countDistinctPoints(const std::vector<Eigen::Vector3f>& points, double radius_m);
 
 /// JSON object with the METRICS.md keys, nested by prefix: {"hypotheses": {...},
-/// "landmarks": {...}, "frontend": {...}, "calibration": [...]}.
-std::string toJson(const LandmarkMetrics& metrics, const std::string& indent);
+/// "frontend": {...}, "landmarks": {...}, "calibration": [...], "by_texture": [...]}; NaN
+/// metrics are null.
+[[nodiscard]] io::Json toJson(const LandmarkMetrics& metrics);
 
 }  // namespace twocam::eval

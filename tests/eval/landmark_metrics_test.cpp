@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
+
+#include "landmarks/landmark_model.h"
 
 namespace twocam::eval {
 namespace {
@@ -55,6 +58,183 @@ TEST(LandmarkMetrics, PatchStdDevIsTheGreyLevelSpreadOfTheClippedPatch) {
   EXPECT_TRUE(std::isnan(patchStdDevGrey(image, -1, 5, kTexturePatchRadius)));
   EXPECT_TRUE(std::isnan(patchStdDevGrey(image, 10, 10, kTexturePatchRadius)));
   EXPECT_TRUE(std::isnan(patchStdDevGrey(ImageU8(), 0, 0, kTexturePatchRadius)));
+}
+
+}  // namespace
+}  // namespace twocam::eval
+
+namespace twocam::eval {
+namespace {
+
+/// A hand-built database state for the evaluator: a small rig, a depth image with a vertical
+/// depth edge (near wall left of column 32, far wall from it), and landmarks placed on purpose.
+class HandBuiltRun : public ::testing::Test {
+ protected:
+  static constexpr float kNearZ = 2.0f;  // d = fx B / z = 25 px
+  static constexpr float kFarZ = 4.0f;   // 12.5 px
+  static constexpr int kEdgeColumn = 32;
+
+  static StereoRig smallRig() {
+    StereoRig rig;
+    rig.width_px = 64;
+    rig.height_px = 48;
+    rig.fx_px = rig.fy_px = 500.0;
+    rig.cx_px = 31.5;
+    rig.cy_px = 23.5;
+    rig.baseline_m = 0.1;
+    return rig;
+  }
+
+  HandBuiltRun() : rig_(smallRig()), depth_(64, 48, kNearZ), left_(64, 48, 100), evaluator_(rig_) {
+    for (int v = 0; v < depth_.height; ++v) {
+      for (int u = kEdgeColumn; u < depth_.width; ++u) depth_(u, v) = kFarZ;
+    }
+  }
+
+  /// Adds a landmark anchored at (u, v) in `frame`, placed on the anchor ray at depth z_m.
+  uint32_t add(landmarks::LandmarkState state,
+               float u,
+               float v,
+               double z_m,
+               double confidence,
+               int32_t frame) {
+    landmarks::Landmark l;
+    l.id = static_cast<uint64_t>(slots_.size()) + 100;
+    l.state = state;
+    l.confidence = confidence;
+    l.first_frame = frame;
+    l.confirmed_frame = state == landmarks::LandmarkState::kConfirmed ? frame + 3 : -1;
+    l.anchor.frame = frame;
+    l.anchor.u_px = u;
+    l.anchor.v_px = v;
+    l.anchor.d_px = static_cast<float>(rig_.fx_px * rig_.baseline_m / z_m);
+    const Eigen::Vector3d ray((u - rig_.cx_px) / rig_.fx_px, (v - rig_.cy_px) / rig_.fy_px, 1.0);
+    l.p_w = landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl) * (ray * z_m);
+    slots_.push_back(l);
+    return static_cast<uint32_t>(slots_.size() - 1);
+  }
+
+  Status frame(int32_t index, const std::vector<uint32_t>& created) {
+    landmarks::FrameReport report;
+    report.frame = index;
+    report.created_slots = created;
+    return evaluator_.addFrame(StereoHypotheses{}, left_, report, slots_, depth_, T_w_b_);
+  }
+
+  StereoRig rig_;
+  ImageF32 depth_;
+  ImageU8 left_;
+  Eigen::Isometry3d T_w_b_ = Eigen::Isometry3d::Identity();
+  std::vector<landmarks::Landmark> slots_;
+  LandmarkEvaluator evaluator_;
+};
+
+TEST_F(HandBuiltRun, PrecisionJudgesDepthEdgesByTheNearAndFarSurface) {
+  using landmarks::LandmarkState;
+  constexpr auto kC = LandmarkState::kConfirmed;
+  const uint32_t right = add(kC, 10, 20, kNearZ, 0.96, 0);
+  const uint32_t wrong = add(kC, 12, 20, 2.5, 0.75, 0);  // 20 px against 25 px of truth
+  // Anchors on the edge (columns 31 and 32 see both walls in their 3x3): no ground truth.
+  const uint32_t near_side = add(kC, 31, 20, kNearZ, 0.9, 0);
+  const uint32_t far_side = add(kC, 32, 20, kFarZ, 0.9, 0);
+  const uint32_t mixed = add(kC, 31, 30, 3.0, 0.9, 0);  // 16.7 px: on neither surface
+  const uint32_t candidate = add(LandmarkState::kCandidate, 50, 10, kFarZ, 0.6, 0);
+  ASSERT_TRUE(frame(0, {right, wrong, near_side, far_side, mixed, candidate}).isOk());
+  // The same physical point confirmed again from frame 1 (0.2 px away: < 1 mm at 2 m).
+  const uint32_t again = add(kC, 10.2f, 20, kNearZ, 0.99, 1);
+  ASSERT_TRUE(frame(1, {again}).isOk());
+
+  EXPECT_EQ(evaluator_.verdict(slots_[right]), 1);
+  EXPECT_EQ(evaluator_.verdict(slots_[wrong]), 0);
+  EXPECT_EQ(evaluator_.verdict(slots_[near_side]), -1);
+  EXPECT_EQ(evaluator_.verdict(slots_[far_side]), -1);
+  EXPECT_EQ(evaluator_.verdict(slots_[mixed]), -1);
+
+  const LandmarkMetrics m = evaluator_.finish(slots_);
+  constexpr double kPercentTol = 1e-9;  // ratios of small integers
+  EXPECT_EQ(m.confirmed, 6);
+  EXPECT_EQ(m.candidates, 1);
+  EXPECT_EQ(m.unjudged_confirmed, 3);
+  EXPECT_EQ(m.unjudged_near_side, 1);
+  EXPECT_EQ(m.unjudged_far_side, 1);
+  EXPECT_EQ(m.unjudged_neither, 1);
+  EXPECT_EQ(m.correct_confirmed_strict, 2);  // right, again
+  EXPECT_EQ(m.correct_confirmed, 4);         // + near side + far side; the mixed one is wrong
+  EXPECT_NEAR(m.precision, 100.0 * 4 / 6, kPercentTol);
+  EXPECT_NEAR(m.precision_strict, 100.0 * 2 / 6, kPercentTol);
+  EXPECT_NEAR(m.precision_judged, 100.0 * 2 / 3, kPercentTol);
+  // `right` and `again` are one physical point.
+  EXPECT_EQ(m.correct_distinct_points, 1);
+
+  // Calibration over judged landmarks (confirmed or not): right 0.96 ok, wrong 0.75, again 0.99
+  // ok, candidate 0.6 ok.
+  ASSERT_EQ(m.calibration.size(), 7u);
+  const auto row = [&](double threshold) {
+    for (const CalibrationRow& r : m.calibration) {
+      if (r.threshold == threshold) return r;
+    }
+    ADD_FAILURE() << "no row " << threshold;
+    return CalibrationRow{};
+  };
+  EXPECT_EQ(row(0.0).landmarks, 4);
+  EXPECT_EQ(row(0.0).correct, 3);
+  EXPECT_NEAR(row(0.0).precision, 75.0, kPercentTol);
+  EXPECT_EQ(row(0.7).landmarks, 3);
+  EXPECT_EQ(row(0.7).correct, 2);
+  EXPECT_EQ(row(0.8).landmarks, 2);
+  EXPECT_NEAR(row(0.8).precision, 100.0, kPercentTol);
+  EXPECT_EQ(row(0.95).landmarks, 2);
+  EXPECT_EQ(row(0.99).landmarks, 1);
+
+  // The JSON schema carries both definitions.
+  const io::Json j = toJson(m);
+  EXPECT_EQ(j["landmarks"]["correct_confirmed"].get<int64_t>(), 4);
+  EXPECT_EQ(j["landmarks"]["correct_confirmed_strict"].get<int64_t>(), 2);
+  EXPECT_NEAR(j["landmarks"]["precision_strict"].get<double>(), 100.0 * 2 / 6, kPercentTol);
+}
+
+TEST_F(HandBuiltRun, RemovedLandmarksAreForgotten) {
+  const uint32_t a = add(landmarks::LandmarkState::kConfirmed, 10, 20, kNearZ, 0.9, 0);
+  ASSERT_TRUE(frame(0, {a}).isOk());
+  landmarks::FrameReport report;
+  report.frame = 1;
+  report.removed_ids = {slots_[a].id};
+  ASSERT_TRUE(
+      evaluator_.addFrame(StereoHypotheses{}, left_, report, slots_, depth_, T_w_b_).isOk());
+  EXPECT_EQ(evaluator_.verdict(slots_[a]), -1);
+}
+
+TEST_F(HandBuiltRun, NonFiniteOrHugeGroundTruthPoseIsAnError) {
+  const uint32_t a = add(landmarks::LandmarkState::kConfirmed, 10, 20, kNearZ, 0.9, 0);
+  T_w_b_.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  const Status nan = frame(0, {a});
+  EXPECT_FALSE(nan.isOk());
+  EXPECT_NE(nan.message().find("not finite"), std::string::npos) << nan.message();
+  EXPECT_NE(nan.message().find("frame 0"), std::string::npos) << nan.message();
+  T_w_b_.translation().x() = 1e12;
+  const Status huge = frame(0, {a});
+  EXPECT_FALSE(huge.isOk());
+  EXPECT_NE(huge.message().find("from the origin"), std::string::npos) << huge.message();
+  T_w_b_.translation().x() = 0.0;
+  T_w_b_.linear()(0, 0) = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(frame(0, {a}).isOk());
+}
+
+TEST(LandmarkMetrics, DistinctPointsSkipNonFiniteAndHandleHugePoints) {
+  constexpr double kRadiusM = 0.02;
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  constexpr float kHuge = 1e30f;  // far beyond int cell indices: no overflow, still compared
+  EXPECT_EQ(countDistinctPoints({Eigen::Vector3f(kNaN, 0, 0),
+                                 Eigen::Vector3f(0, 0, std::numeric_limits<float>::infinity()),
+                                 Eigen::Vector3f(0, 0, 0)},
+                                kRadiusM),
+            1);
+  EXPECT_EQ(countDistinctPoints({Eigen::Vector3f(kHuge, 0, 0),
+                                 Eigen::Vector3f(kHuge, 0, 0),
+                                 Eigen::Vector3f(-kHuge, 0, 0),
+                                 Eigen::Vector3f(0, -kHuge, kHuge)},
+                                kRadiusM),
+            3);
 }
 
 }  // namespace

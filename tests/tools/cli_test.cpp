@@ -368,6 +368,135 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
   EXPECT_FALSE(fs::exists(dir + "/a/metrics.json.partial"));
 }
 
+/// Every file below `dir` with its bytes (folders as "<dir>"), to check "untouched byte for byte".
+std::map<std::string, std::string> snapshot(const std::string& dir) {
+  std::map<std::string, std::string> t;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    t[fs::relative(e.path(), dir).string()] =
+        e.is_directory() ? "<dir>" : readFile(e.path().string());
+  }
+  return t;
+}
+
+/// Staging folders (".<name>.staging-XXXXXX") left in `dir`.
+int stagingLeftovers(const std::string& dir) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    n += e.path().filename().string().find(".staging-") != std::string::npos;
+  return n;
+}
+
+TEST(TwocamCli, RunReplacesAnEarlierRunAllOrNothingAndNeverAnInput) {
+  const std::string dir = test::makeTempDir("cli_run_all_or_nothing");
+  ASSERT_EQ(
+      run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 8 --seed 5 -q").exit_code,
+      0);
+  ASSERT_EQ(run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures").exit_code, 0);
+  const auto before = snapshot(dir + "/a");
+  ASSERT_TRUE(before.count("sample_frame/left.png"));
+
+  // A late write fails (the sample frame, written after 8 other files before this change):
+  // exit 1, and the earlier run's folder is untouched byte for byte.
+  for (const char* late : {"sample_frame/left.png", "metrics.json", "map_eval_voxels.csv"}) {
+    const test::CommandResult r =
+        test::runCommand(std::string("TWOCAM_TEST_FAIL_WRITE=") + late + " " + TWOCAM_BINARY +
+                         " run " + dir + "/s.rawlog -o " + dir +
+                         "/a -q --no-pictures --policy "
+                         "wta-lrc");
+    EXPECT_EQ(r.exit_code, 1) << late << "\n" << r.err;
+    EXPECT_NE(r.err.find(late), std::string::npos) << r.err;
+    EXPECT_EQ(snapshot(dir + "/a"), before) << late;
+    EXPECT_EQ(stagingLeftovers(dir), 0) << late;
+  }
+  // A read-only sample_frame/ in the earlier folder does not matter: the new run is staged
+  // elsewhere and replaces the folder as a whole.
+  fs::permissions(dir + "/a/sample_frame", fs::perms::owner_read | fs::perms::owner_exec);
+  const RunResult again =
+      run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures --policy wta-lrc");
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(readFile(dir + "/a/metrics.json").find("\"policy\": \"wta-lrc\""), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir + "/a/sample_frame/left.png"));
+  EXPECT_EQ(stagingLeftovers(dir), 0);
+
+  // An output that is an input, holds one or lies in one: an error before any work.
+  {
+    std::ofstream cfg(dir + "/cfg.yaml");
+    cfg << "mapping:\n  resolution_m: 0.1\n";
+  }
+  const auto inputs = snapshot(dir + "/s_Images");
+  const std::string log_bytes = readFile(dir + "/s.rawlog");
+  const std::string world_bytes = readFile(dir + "/s.world.yaml");
+  for (const std::string& out : {dir + "/s.rawlog",
+                                 dir + "/s_Images",
+                                 dir + "/s_Images/out",
+                                 dir + "/s.world.yaml",
+                                 dir + "/cfg.yaml",
+                                 dir,
+                                 dir + "/s.rawlog/sub"}) {
+    const RunResult r = run("run " + dir + "/s.rawlog -o " + out + " --config " + dir +
+                            "/cfg.yaml -q --no-pictures");
+    EXPECT_EQ(r.exit_code, 1) << out << "\n" << r.output;
+    EXPECT_NE(r.error.find(out), std::string::npos) << r.error;
+    EXPECT_EQ(r.output.find("frames:"), std::string::npos) << "work was done for " << out;
+  }
+  EXPECT_EQ(snapshot(dir + "/s_Images"), inputs);
+  EXPECT_EQ(readFile(dir + "/s.rawlog"), log_bytes);
+  EXPECT_EQ(readFile(dir + "/s.world.yaml"), world_bytes);
+  // A folder that is not an earlier run's (no metrics.json) is not replaced.
+  fs::create_directories(dir + "/mine");
+  { std::ofstream(dir + "/mine/notes.txt") << "keep"; }
+  const RunResult mine = run("run " + dir + "/s.rawlog -o " + dir + "/mine -q --no-pictures");
+  EXPECT_EQ(mine.exit_code, 1) << mine.output;
+  EXPECT_NE(mine.error.find("metrics.json"), std::string::npos) << mine.error;
+  EXPECT_EQ(readFile(dir + "/mine/notes.txt"), "keep");
+}
+
+TEST(TwocamCli, RunSaysWhyThereIsNoMapEvaluation) {
+  const std::string dir = test::makeTempDir("cli_run_octomap_absent");
+  ASSERT_EQ(
+      run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 6 --seed 5 -q").exit_code,
+      0);
+  // No sidecar: "octomap": {"absent": ...} names what is missing.
+  fs::rename(dir + "/s.world.yaml", dir + "/kept.world.yaml");
+  const RunResult none = run("run " + dir + "/s.rawlog -o " + dir + "/none -q --no-pictures");
+  ASSERT_EQ(none.exit_code, 0) << none.output;
+  const std::string m_none = readFile(dir + "/none/metrics.json");
+  EXPECT_NE(m_none.find("\"octomap\": {\"absent\": \"no world file"), std::string::npos) << m_none;
+  EXPECT_NE(m_none.find("s.world.yaml"), std::string::npos) << m_none;
+  // An unreadable sidecar: a warning, and the reason in metrics.json.
+  {
+    std::ofstream bad(dir + "/s.world.yaml");
+    bad << "shapes: [ {type: plane\n";
+  }
+  const RunResult bad = run("run " + dir + "/s.rawlog -o " + dir + "/bad -q --no-pictures");
+  ASSERT_EQ(bad.exit_code, 0) << bad.output;
+  EXPECT_NE(bad.error.find("no map evaluation"), std::string::npos) << bad.error;
+  const std::string m_bad = readFile(dir + "/bad/metrics.json");
+  EXPECT_NE(m_bad.find("\"absent\": \""), std::string::npos) << m_bad;
+  EXPECT_NE(m_bad.find("s.world.yaml"), std::string::npos) << m_bad;
+  EXPECT_FALSE(fs::exists(dir + "/bad/map_eval_voxels.csv"));
+}
+
+TEST(TwocamCli, RunRefusesANonFiniteGroundTruthPose) {
+  // Before: the NaN reached the distinct-points count (a float-to-int conversion of NaN,
+  // undefined behaviour that UBSan aborts on; Release went on with exit 0).
+  const std::string dir = test::makeTempDir("cli_run_nan_truth");
+  ASSERT_EQ(
+      run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 6 --seed 5 -q").exit_code,
+      0);
+  ASSERT_TRUE(rewriteLog(dir + "/s.rawlog", dir + "/nan.rawlog", [](io::LogFrame* f) {
+                if (f->index == 3 && f->ground_truth) {
+                  f->ground_truth->T_w_b.translation().y() =
+                      std::numeric_limits<double>::quiet_NaN();
+                }
+              }).isOk());
+  const RunResult r = run("run " + dir + "/nan.rawlog -o " + dir + "/out -q --no-pictures");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.error.find("frame 3: the ground-truth pose is not finite"), std::string::npos)
+      << r.error;
+  EXPECT_FALSE(fs::exists(dir + "/out"));
+}
+
 TEST(TwocamCli, RunDrawsPictures) {
   if (!fs::exists("/usr/bin/python3"))
     GTEST_SKIP() << "no /usr/bin/python3: pictures need Debian's python3-matplotlib";

@@ -1,0 +1,364 @@
+#include "eval/run_evaluator.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "common/frames.h"
+#include "common/stats.h"
+#include "eval/disparity_io.h"
+#include "eval/trajectory_metrics.h"
+#include "landmarks/landmark_model.h"
+
+namespace twocam::eval {
+namespace {
+
+using io::Json;
+using io::numberOrNull;
+
+/// A hypothesis in sample_frame/hypotheses.csv is true within this disparity error [px].
+constexpr float kTruthTolPx = 1.0f;
+
+/// The frame's ground truth when it can be evaluated: a depth image of the frame's size.
+const GroundTruthFrame* usableGroundTruth(const io::LogFrame& f) {
+  return f.ground_truth && f.ground_truth->depth_left.width == f.stereo.left.width &&
+                 f.ground_truth->depth_left.height == f.stereo.left.height
+             ? &*f.ground_truth
+             : nullptr;
+}
+
+std::string voxelsCsv(const std::vector<mapping::Voxel>& voxels) {
+  std::ostringstream csv;
+  csv << std::setprecision(9) << "x,y,z,size,probability\n";
+  for (const mapping::Voxel& v : voxels) {
+    csv << v.centre_m.x() << ',' << v.centre_m.y() << ',' << v.centre_m.z() << ',' << v.size_m
+        << ',' << v.probability << '\n';
+  }
+  return csv.str();
+}
+
+Json mapMetricsJson(const MapMetrics& m) {
+  return {{"occupied", m.occupied},
+          {"phantom", m.phantom},
+          {"phantom_fraction", numberOrNull(m.phantom_fraction)}};
+}
+
+std::string timingsCsv(const std::vector<pipeline::FrameRecord>& records) {
+  std::ostringstream csv;
+  csv << std::setprecision(6)
+      << "frame,frontend_ms,landmarks_ms,mapping_ms,total_ms,corners,hypotheses,candidates,"
+         "confirmed\n";
+  for (const pipeline::FrameRecord& r : records) {
+    csv << r.frame << ',' << r.times.frontend_ms << ',' << r.times.landmarks_ms << ','
+        << r.times.mapping_ms << ',' << r.times.total_ms() << ',' << r.corners << ','
+        << r.hypotheses << ',' << r.candidates << ',' << r.confirmed << '\n';
+  }
+  return csv.str();
+}
+
+/// Per-stage wall times of the processed frames [ms].
+struct StageSamples {
+  std::vector<double> frontend, landmarks, mapping, total;
+};
+
+StageSamples stageSamples(const std::vector<pipeline::FrameRecord>& records) {
+  StageSamples s;
+  for (const pipeline::FrameRecord& r : records) {
+    s.frontend.push_back(r.times.frontend_ms);
+    s.landmarks.push_back(r.times.landmarks_ms);
+    s.mapping.push_back(r.times.mapping_ms);
+    s.total.push_back(r.times.total_ms());
+  }
+  return s;
+}
+
+Json timingJson(const StageSamples& s, double wall_ms) {
+  Json t = Json::object();
+  const std::pair<const char*, const std::vector<double>*> stages[] = {{"frontend", &s.frontend},
+                                                                       {"landmarks", &s.landmarks},
+                                                                       {"mapping", &s.mapping},
+                                                                       {"total", &s.total}};
+  for (const auto& [name, samples] : stages) {
+    t[std::string(name) + "_median"] = numberOrNull(median(*samples));
+    t[std::string(name) + "_p95"] = numberOrNull(quantile(*samples, 0.95));
+  }
+  return {{"timing_ms", t},
+          {"frames", static_cast<int64_t>(s.total.size())},
+          {"wall_s", wall_ms * 1e-3}};
+}
+
+}  // namespace
+
+RunEvaluator::RunEvaluator(const StereoRig& rig,
+                           const pipeline::PipelineConfig& config,
+                           Inputs inputs)
+    : rig_(rig), config_(config), inputs_(std::move(inputs)), landmarks_(rig) {
+  if (inputs_.world) eval_mapper_ = std::make_unique<mapping::OccupancyMapper>(config_.mapping);
+}
+
+RunEvaluator::~RunEvaluator() = default;
+
+Status RunEvaluator::addFrame(const pipeline::RunFrame& f) {
+  const GroundTruthFrame* gt = usableGroundTruth(f.log);
+  if (f.odometry_mode) {
+    if (gt && has_gt_) {
+      if (Status s = checkGroundTruthPose(gt->T_w_b); !s) {
+        return Status::error("frame " + std::to_string(f.log.index) + ": " + s.message());
+      }
+      gt_track_.push_back({f.log.stereo.t_ns, gt->T_w_b});
+      const pipeline::Pipeline& pipe = f.pipeline;
+      if (Status s = landmarks_.addFrame(pipe.hypotheses(),
+                                         f.log.stereo.left,
+                                         pipe.report(),
+                                         pipe.database(),
+                                         gt->depth_left,
+                                         gt->T_w_b);
+          !s) {
+        return s;
+      }
+      if (eval_mapper_) {
+        if (Status s = addToEvaluationMap(f, gt->T_w_b); !s) return s;
+      }
+    } else {
+      has_gt_ = false;
+    }
+  }
+  if (!sample_taken_ && f.log.index >= inputs_.sample_frame) takeSample(f, gt);
+  return Status::ok();
+}
+
+Status RunEvaluator::addToEvaluationMap(const pipeline::RunFrame& f,
+                                        const Eigen::Isometry3d& T_w_b_true) {
+  // Each landmark is placed with the correction (true pose x odometry pose^-1) of its anchor
+  // frame, where its position was measured; the ray starts at the true camera.
+  const Eigen::Isometry3d T_true_odom = T_w_b_true * toIsometry(f.log.odometry->pose).inverse();
+  const auto index = static_cast<size_t>(f.log.index);
+  if (index >= T_true_odom_by_frame_.size()) {
+    T_true_odom_by_frame_.resize(index + 1, Eigen::Isometry3d::Identity());
+  }
+  T_true_odom_by_frame_[index] = T_true_odom;
+  const pipeline::FrameOutput& fo = f.output;
+  const auto& slots = f.pipeline.database().landmarks();  // slot read: mapped landmarks' anchors
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(fo.mapped_points_w.size());
+  for (size_t i = 0; i < fo.mapped_points_w.size(); ++i) {
+    const int32_t anchor = slots[fo.mapped_slots[i]].anchor.frame;
+    const bool known = anchor >= 0 && static_cast<size_t>(anchor) < T_true_odom_by_frame_.size();
+    pts.push_back((known ? T_true_odom_by_frame_[static_cast<size_t>(anchor)] : T_true_odom) *
+                  fo.mapped_points_w[i]);
+  }
+  const Eigen::Vector3d o = T_true_odom * fo.camera_origin_w;
+  octomap::OcTreeKey key;
+  if (eval_mapper_->tree().coordToKeyChecked(
+          octomap::point3d(
+              static_cast<float>(o.x()), static_cast<float>(o.y()), static_cast<float>(o.z())),
+          key)) {
+    eval_mapper_->insertFrame(o, pts);
+  }
+  return Status::ok();
+}
+
+void RunEvaluator::takeSample(const pipeline::RunFrame& f, const GroundTruthFrame* gt) {
+  sample_taken_ = true;
+  sample_index_ = f.log.index;
+  sample_left_ = f.log.stereo.left;
+  sample_right_ = f.log.stereo.right;
+  DisparityGroundTruth d_gt;
+  const bool has_gt = gt != nullptr && disparityFromDepth(gt->depth_left, rig_, &d_gt).isOk();
+  std::ostringstream csv;
+  csv << std::setprecision(7)
+      << "frame,corner,u,v,rank,d,cost,lr_consistent,landmark_state,truth\n";
+  const pipeline::Pipeline& pipe = f.pipeline;
+  const StereoHypotheses& hyps = pipe.hypotheses();
+  const auto& slots = pipe.database().landmarks();  // slot read: each hypothesis' landmark
+  const auto& hypothesis_landmark = pipe.report().hypothesis_landmark;
+  for (size_t j = 0; j < hyps.hypotheses.size(); ++j) {
+    const DisparityHypothesis& h = hyps.hypotheses[j];
+    const Corner& c = hyps.points[h.point_index].corner;
+    int state = -1;
+    if (f.odometry_mode && j < hypothesis_landmark.size()) {
+      const int32_t slot = hypothesis_landmark[j];
+      if (slot >= 0) {
+        const auto s = slots[static_cast<size_t>(slot)].state;
+        state = s == landmarks::LandmarkState::kConfirmed   ? 1
+                : s == landmarks::LandmarkState::kCandidate ? 0
+                                                            : -1;
+      }
+    }
+    int truth = -1;
+    if (has_gt && d_gt.valid(c.u_px, c.v_px))
+      truth = std::abs(h.d_px - d_gt.d_px(c.u_px, c.v_px)) <= kTruthTolPx ? 1 : 0;
+    csv << f.log.index << ',' << h.point_index << ',' << c.u_px << ',' << c.v_px << ','
+        << static_cast<int>(h.rank) << ',' << h.d_px << ',' << h.cost << ','
+        << (h.lr_consistent ? 1 : 0) << ',' << state << ',' << truth << '\n';
+  }
+  sample_csv_ = csv.str();
+}
+
+std::string RunEvaluator::landmarksCsv(const landmarks::LandmarkDatabase& db, bool has_gt) const {
+  // The leading columns, then verdict and errors with ground truth.
+  std::ostringstream csv;
+  csv << std::setprecision(9);
+  csv << "id,x,y,z,confirmed,confidence,n_obs,first_frame,anchor_frame,anchor_u,anchor_v,anchor_d,"
+         "confirmed_frame,"
+         "verdict,error_m,anchor_d_gt,estimate_anchor_d,anchor_d_gt_near,anchor_d_gt_far,anchor_"
+         "texture_grey\n";
+  const auto optional_num = [&](double v) {
+    if (std::isfinite(v)) csv << v;
+  };
+  const double nan = std::nan("");
+  for (const landmarks::Landmark& l : db.landmarks()) {  // slot read: every live landmark
+    if (l.state == landmarks::LandmarkState::kFree) continue;
+    csv << l.id << ',' << l.p_w.x() << ',' << l.p_w.y() << ',' << l.p_w.z() << ','
+        << (l.state == landmarks::LandmarkState::kConfirmed ? 1 : 0) << ',' << l.confidence << ','
+        << l.n_obs << ',' << l.first_frame << ',' << l.anchor.frame << ',' << l.anchor.u_px << ','
+        << l.anchor.v_px << ',' << l.anchor.d_px << ',' << l.confirmed_frame << ','
+        << (has_gt ? landmarks_.verdict(l) : -1) << ',';
+    optional_num(has_gt ? landmarks_.errorM(l) : nan);
+    csv << ',';
+    optional_num(has_gt ? landmarks_.anchorDisparityGt(l) : nan);
+    // The estimate's disparity seen from the anchor camera (equals anchor_d until refined).
+    const Eigen::Vector3d p_ca =
+        landmarks::cameraPoseInWorld(l.anchor.odom_pose, rig_.T_b_cl).inverse() * l.p_w;
+    csv << ',' << rig_.fx_px * rig_.baseline_m / p_ca.z() << ',';
+    optional_num(has_gt ? landmarks_.anchorDisparityNear(l) : nan);
+    csv << ',';
+    optional_num(has_gt ? landmarks_.anchorDisparityFar(l) : nan);
+    csv << ',';
+    optional_num(has_gt ? landmarks_.anchorTextureGrey(l) : nan);
+    csv << '\n';
+  }
+  return csv.str();
+}
+
+Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
+  const pipeline::RunSummary& s = run.summary();
+  const pipeline::Pipeline& pipe = run.pipeline();
+  const landmarks::LandmarkDatabase& db = pipe.database();
+  const double resolution_m = config_.mapping.resolution_m;
+  const bool has_gt = has_gt_ && s.odometry_mode && !gt_track_.empty();
+  *out = RunOutputs{};
+
+  // ---- map: the odometry map and, with a world and ground truth, the evaluation map ----------
+  const std::vector<mapping::Voxel> voxels = pipe.mapper().occupiedVoxels();
+  std::optional<MapMetrics> map_eval, map_eval_odom;
+  std::ostringstream eval_voxels_csv;
+  if (inputs_.world && has_gt) {
+    const std::vector<mapping::Voxel> ev = eval_mapper_->occupiedVoxels();
+    std::vector<double> dist;
+    map_eval = evaluateMap(ev, *inputs_.world, resolution_m, &dist);
+    map_eval_odom = evaluateMap(voxels, *inputs_.world, resolution_m);
+    eval_voxels_csv << std::setprecision(9) << "x,y,z,size,distance_m,phantom\n";
+    for (size_t i = 0; i < ev.size(); ++i) {
+      eval_voxels_csv << ev[i].centre_m.x() << ',' << ev[i].centre_m.y() << ','
+                      << ev[i].centre_m.z() << ',' << ev[i].size_m << ',' << dist[i] << ','
+                      << (dist[i] > 2.0 * resolution_m ? 1 : 0) << '\n';
+    }
+  }
+
+  // ---- metrics.json --------------------------------------------------------------------------
+  Json& m = out->metrics;
+  m = Json::object();
+  m["log"] = inputs_.log_path;
+  m["policy"] = landmarks::policyName(config_.landmarks.policy);
+  m["source"] = frontend::hypothesisSourceName(config_.frontend.source);
+  m["seed"] = config_.seed;
+  m["frames"] = s.frames;
+  m["frames_processed"] = s.processed;
+  m["frames_skipped"] = s.skipped;
+  m["odometry"] = s.odometry_mode;
+  m["ground_truth"] = has_gt;
+  const auto per_frame = [&](int64_t n) {
+    return numberOrNull(static_cast<double>(n) / s.processed);
+  };
+  m["detections"] = {{"corners_per_frame", per_frame(s.sum_corners)},
+                     {"salient_points_per_frame", per_frame(s.sum_salient_points)},
+                     {"hypotheses_per_frame", per_frame(s.sum_hypotheses)}};
+  const mapping::MappingStats& ms = pipe.mapper().stats();
+  m["mapping"] = {{"resolution_m", numberOrNull(resolution_m)},
+                  {"occupied_voxels", voxels.size()},
+                  {"points_inserted", ms.points_inserted},
+                  {"points_beyond_range", ms.points_beyond_range},
+                  {"frames_outside_map", s.frames_outside_map}};
+  if (map_eval) {
+    m["octomap"] = {{"resolution_m", numberOrNull(resolution_m)},
+                    {"occupied", map_eval->occupied},
+                    {"phantom", map_eval->phantom},
+                    {"phantom_fraction", numberOrNull(map_eval->phantom_fraction)},
+                    {"odometry_frame", mapMetricsJson(*map_eval_odom)}};
+  } else {
+    // Said, not omitted: why there is no map evaluation.
+    const std::string why = !s.odometry_mode ? "the log has no odometry, so there is no map"
+                            : !has_gt ? "the log has no ground truth (true depth and pose) for "
+                                        "every frame"
+                                      : inputs_.world_absent;
+    m["octomap"] = {{"absent", why}};
+  }
+  std::optional<LandmarkMetrics> lm;
+  if (has_gt) {
+    double ate = 0.0;
+    if (Status st = ateRmseM(s.odom_track, gt_track_, &ate); !st) return st;
+    m["trajectory"] = {{"ate_rmse_m", {{"odometry", numberOrNull(ate)}}}};
+    lm = landmarks_.finish(db);
+    const Json nested = toJson(*lm);
+    for (auto it = nested.begin(); it != nested.end(); ++it) m[it.key()] = *it;
+  } else {
+    m["landmarks"] = {{"confirmed", db.numConfirmed()}, {"candidates", db.numCandidates()}};
+  }
+
+  // ---- timings -------------------------------------------------------------------------------
+  const StageSamples stages = stageSamples(s.records);
+  out->timing = timingJson(stages, s.wall_ms);
+
+  // ---- files ---------------------------------------------------------------------------------
+  auto& files = out->text_files;
+  files.emplace_back("landmarks.csv", landmarksCsv(db, has_gt));
+  files.emplace_back("timings.csv", timingsCsv(s.records));
+  files.emplace_back("config_used.yaml",
+                     "# Effective configuration of twocam run on " + inputs_.log_path + "\n" +
+                         pipeline::toYaml(config_));
+  if (s.odometry_mode) {
+    files.emplace_back(
+        "trajectory_odom.tum",
+        io::toTum(s.odom_track, "wheel odometry: body pose in the odometry world frame"));
+    files.emplace_back("map_voxels.csv", voxelsCsv(voxels));
+  }
+  if (has_gt) {
+    files.emplace_back("trajectory_gt.tum",
+                       io::toTum(gt_track_, "ground truth: body pose in the world frame"));
+  }
+  if (map_eval) files.emplace_back("map_eval_voxels.csv", eval_voxels_csv.str());
+  out->map_evaluated = map_eval.has_value();
+  if (sample_taken_) {
+    out->sample_taken = true;
+    out->pngs.push_back({"sample_frame/left.png", sample_left_});
+    out->pngs.push_back({"sample_frame/right.png", sample_right_});
+    files.emplace_back("sample_frame/hypotheses.csv", sample_csv_);
+  }
+
+  // ---- summary lines -------------------------------------------------------------------------
+  std::ostringstream sum;
+  sum << std::setprecision(4);
+  sum << "frames: " << s.processed << " processed, " << s.skipped << " skipped; per frame median "
+      << median(stages.total) << " ms (frontend " << median(stages.frontend) << ", landmarks "
+      << median(stages.landmarks) << ", mapping " << median(stages.mapping) << ")\n";
+  if (lm) {
+    sum << "landmarks: " << lm->confirmed << " confirmed, " << lm->correct_confirmed
+        << " correct, precision " << lm->precision << " % (strict " << lm->precision_strict
+        << " %; " << lm->precision_judged << " % of the " << lm->confirmed - lm->unjudged_confirmed
+        << " with ground truth at the anchor), median error " << lm->median_error_m << " m\n";
+  } else if (s.odometry_mode) {
+    sum << "landmarks: " << db.numConfirmed() << " confirmed, " << db.numCandidates()
+        << " candidates (no ground truth)\n";
+  }
+  if (map_eval) {
+    sum << "map: " << map_eval->occupied << " occupied voxels at " << resolution_m << " m, "
+        << map_eval->phantom << " phantom (" << 100.0 * map_eval->phantom_fraction << " %)\n";
+  } else if (s.odometry_mode) {
+    sum << "map: " << voxels.size() << " occupied voxels at " << resolution_m << " m\n";
+  }
+  out->summary = sum.str();
+  return Status::ok();
+}
+
+}  // namespace twocam::eval

@@ -1,0 +1,96 @@
+#pragma once
+/// Evaluation and output schema of one `twocam run` (docs/run.md): fed frame by frame beside
+/// pipeline::Run, it judges the frames against the log's ground truth (landmark_metrics.h),
+/// builds the evaluation map (the same rays placed with the true poses, so that phantom voxels
+/// measure wrong landmarks, not odometry drift), draws the sample frame, and at the end turns
+/// everything into the run's files: landmarks.csv, metrics.json (as a JSON value), timings,
+/// trajectories, voxel lists, and the summary lines printed by the CLI.
+///
+/// Ground truth counts only while every processed frame has it (a depth image of the frame's
+/// size and a true pose): the first frame without it ends the evaluation (a log may carry poses
+/// alone; a truncated log may end inside a frame's ground truth).
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/image.h"
+#include "common/rig.h"
+#include "common/status.h"
+#include "eval/landmark_metrics.h"
+#include "eval/map_metrics.h"
+#include "io/json.h"
+#include "io/trajectory.h"
+#include "mapping/occupancy_mapper.h"
+#include "pipeline/config.h"
+#include "pipeline/run.h"
+#include "sim/world.h"
+
+namespace twocam::eval {
+
+/// Everything a run writes, built in memory (the writer stages and swaps it in, io/run_writer.h).
+struct RunOutputs {
+  /// Relative path and content of each text file (CSV, TUM), written as they are.
+  std::vector<std::pair<std::string, std::string>> text_files;
+  struct Png {
+    std::string path;
+    ImageU8 image;
+  };
+  std::vector<Png> pngs;
+  io::Json metrics;  ///< metrics.json (deterministic: no wall-clock times)
+  io::Json timing;   ///< timing.json (wall-clock stage times)
+  /// Lines the CLI prints (frames, landmarks, map), each ending in '\n'.
+  std::string summary;
+  /// The map evaluation against the world was made (map_eval_voxels.csv written).
+  bool map_evaluated = false;
+  /// The sample frame was taken (sample_frame/ written).
+  bool sample_taken = false;
+};
+
+class RunEvaluator {
+ public:
+  struct Inputs {
+    std::string log_path;  ///< recorded in metrics.json
+    /// World of a simulated log for the map evaluation, or nullptr; then `world_absent` says why
+    /// (metrics.json "octomap": {"absent": reason}).
+    const sim::World* world = nullptr;
+    std::string world_absent;
+    /// Frame index drawn in sample_frame/ (the first processed frame at or after it).
+    int sample_frame = 0;
+  };
+
+  RunEvaluator(const StereoRig& rig, const pipeline::PipelineConfig& config, Inputs inputs);
+  ~RunEvaluator();
+
+  /// pipeline::RunCallbacks::on_frame. Errors: ground truth that cannot be evaluated (a true
+  /// pose that is not finite or absurdly far, eval/landmark_metrics.h checkGroundTruthPose).
+  [[nodiscard]] Status addFrame(const pipeline::RunFrame& frame);
+
+  /// The run's outputs from the finished run. Errors: the trajectory evaluation fails.
+  [[nodiscard]] Status finish(const pipeline::Run& run, RunOutputs* out) const;
+
+ private:
+  [[nodiscard]] Status addToEvaluationMap(const pipeline::RunFrame& frame,
+                                          const Eigen::Isometry3d& T_w_b_true);
+  void takeSample(const pipeline::RunFrame& frame, const GroundTruthFrame* gt);
+  [[nodiscard]] std::string landmarksCsv(const landmarks::LandmarkDatabase& db, bool has_gt) const;
+
+  StereoRig rig_;
+  pipeline::PipelineConfig config_;
+  Inputs inputs_;
+  LandmarkEvaluator landmarks_;
+  std::unique_ptr<mapping::OccupancyMapper> eval_mapper_;
+  /// Correction true pose x odometry pose^-1 by frame index, for placing each landmark with the
+  /// one of its anchor frame (evaluation map only).
+  std::vector<Eigen::Isometry3d> T_true_odom_by_frame_;
+  std::vector<io::TimedPose> gt_track_;
+  bool has_gt_ = true;
+  bool sample_taken_ = false;
+  int sample_index_ = 0;
+  ImageU8 sample_left_, sample_right_;
+  std::string sample_csv_;
+};
+
+}  // namespace twocam::eval

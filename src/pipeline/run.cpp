@@ -1,0 +1,87 @@
+#include "pipeline/run.h"
+
+#include "common/frames.h"
+#include "common/timer.h"
+
+namespace twocam::pipeline {
+
+Run::Run(const StereoRig& rig, const PipelineConfig& config) : pipe_(rig, config) {}
+
+FrameSource frameSource(io::RawlogReader& reader) {
+  return [&reader](io::LogFrame* frame, Status* status) { return reader.next(frame, status); };
+}
+
+Status Run::execute(const FrameSource& next,
+                    const std::string& source_name,
+                    std::optional<int> max_frames,
+                    const RunCallbacks& callbacks) {
+  const auto warn = [&](const std::string& message) {
+    if (callbacks.warn) callbacks.warn(message);
+  };
+  const Timer wall;
+  RunSummary& s = summary_;
+  s = RunSummary{};
+  FrameOutput fo;
+  io::LogFrame frame;
+  Status read_status;
+  while ((!max_frames || s.frames < *max_frames) && next(&frame, &read_status)) {
+    if (s.frames == 0 && !frame.odometry) {
+      s.odometry_mode = false;
+      pipe_.skipRowSupport();
+      warn(source_name +
+           " has no odometry: running the frontend only (corners and hypotheses); the landmark "
+           "database needs wheel odometry to predict where landmarks reappear, so there are no "
+           "landmarks and no map");
+    }
+    ++s.frames;
+    if (callbacks.progress) callbacks.progress(s.frames);
+    if (s.odometry_mode && !frame.odometry) {
+      warn("skipping frame " + std::to_string(frame.index) + ": it has no odometry");
+      ++s.skipped;
+      continue;
+    }
+    const Status st = s.odometry_mode
+                          ? pipe_.process(frame.index, frame.stereo, frame.odometry->pose, &fo)
+                          : pipe_.processFrontendOnly(frame.stereo, &fo);
+    if (!st) {
+      if (fo.failure != FrameOutput::Failure::kLandmarks) {
+        return Status::error("frame " + std::to_string(frame.index) + ": " + st.message());
+      }
+      // The database refused the frame (NaN pose, time going backwards): it is unchanged.
+      warn("skipping " + st.message());
+      ++s.skipped;
+      continue;
+    }
+    ++s.processed;
+    if (fo.outside_map && s.frames_outside_map++ == 0) {
+      warn("frame " + std::to_string(frame.index) + ": the camera is outside the map's extent (" +
+           std::to_string(fo.camera_origin_w.norm()) +
+           " m from the origin); such frames are not mapped");
+    }
+    const int64_t corners = static_cast<int64_t>(pipe_.frontend().corners().size());
+    const int64_t hypotheses = static_cast<int64_t>(pipe_.hypotheses().hypotheses.size());
+    s.sum_corners += corners;
+    s.sum_salient_points += static_cast<int64_t>(pipe_.hypotheses().points.size());
+    s.sum_hypotheses += hypotheses;
+    if (s.odometry_mode) {
+      s.odom_track.push_back({frame.stereo.t_ns, toIsometry(frame.odometry->pose)});
+    }
+    if (callbacks.on_frame) {
+      if (Status cs = callbacks.on_frame(RunFrame{frame, fo, pipe_, s.odometry_mode}); !cs)
+        return cs;
+    }
+    s.records.push_back({frame.index,
+                         fo.times,
+                         corners,
+                         hypotheses,
+                         pipe_.database().numCandidates(),
+                         pipe_.database().numConfirmed()});
+  }
+  s.wall_ms = wall.elapsedMs();
+  if (!read_status) return read_status;
+  if (s.frames == 0) return Status::error(source_name + ": no stereo frames");
+  if (s.processed == 0) return Status::error(source_name + ": no frame could be processed");
+  return Status::ok();
+}
+
+}  // namespace twocam::pipeline

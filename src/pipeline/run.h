@@ -1,0 +1,103 @@
+#pragma once
+/// One run of the pipeline over a stream of logged frames: the frame loop of `twocam run` and its
+/// policies, apart from evaluation (eval/run_evaluator.h) and output (io/run_writer.h).
+///
+/// Policies:
+/// - A log whose first frame has no odometry runs the frontend only (corners and hypotheses; no
+///   landmarks, no map): the landmark database needs wheel odometry to predict where landmarks
+///   reappear. Said once through RunCallbacks::warn.
+/// - In odometry mode a later frame without odometry is skipped with a warning; so is a frame the
+///   landmark database refuses (NaN pose, time going backwards), which leaves it unchanged.
+///   Any other frame error (frontend: an image of the wrong size) stops the run.
+/// - The first frame whose camera lies outside the map's extent is warned about (such frames are
+///   not mapped; landmarks go on).
+/// - Per processed frame: stage times and counts (FrameRecord), the odometry track.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/rig.h"
+#include "common/status.h"
+#include "io/rawlog.h"
+#include "io/trajectory.h"
+#include "pipeline/config.h"
+#include "pipeline/pipeline.h"
+
+namespace twocam::pipeline {
+
+/// A processed frame as observers see it; refers to the run's state, valid during the callback.
+struct RunFrame {
+  const io::LogFrame& log;  ///< images, odometry and ground truth as read
+  const FrameOutput& output;
+  const Pipeline& pipeline;
+  bool odometry_mode = true;
+};
+
+/// Stage times and counts of one processed frame (timings.csv).
+struct FrameRecord {
+  int32_t frame = 0;
+  StageTimes times;
+  int64_t corners = 0;
+  int64_t hypotheses = 0;
+  int candidates = 0;  ///< in the database after the frame
+  int confirmed = 0;
+};
+
+struct RunSummary {
+  int frames = 0;  ///< read from the log (up to max_frames)
+  int processed = 0;
+  int skipped = 0;
+  bool odometry_mode = true;
+  int frames_outside_map = 0;
+  /// Sums over processed frames, for per-frame means.
+  int64_t sum_corners = 0;
+  int64_t sum_salient_points = 0;
+  int64_t sum_hypotheses = 0;
+  std::vector<FrameRecord> records;
+  /// Odometry pose of each processed frame (odometry mode) in the odometry world frame.
+  std::vector<io::TimedPose> odom_track;
+  /// Wall time of the whole loop, reading and callbacks included [ms].
+  double wall_ms = 0.0;
+};
+
+struct RunCallbacks {
+  /// One line per event (skipped frame, frontend-only mode, camera outside the map).
+  std::function<void(const std::string&)> warn;
+  /// After each processed frame; an error stops the run and is returned.
+  std::function<Status(const RunFrame&)> on_frame;
+  /// After each frame read, with the number read so far.
+  std::function<void(int)> progress;
+};
+
+/// Reads the next frame into *frame; false at the end, with *status saying whether the end was
+/// an error (io::RawlogReader::next).
+using FrameSource = std::function<bool(io::LogFrame*, Status*)>;
+
+class Run {
+ public:
+  /// `config` as for Pipeline (valid, fitted to the rig by clampToRig).
+  Run(const StereoRig& rig, const PipelineConfig& config);
+
+  /// Runs the loop over `next` (at most max_frames frames when given). `source_name` (the log
+  /// path) starts the errors about the stream as a whole. Errors: a read error, a frontend or
+  /// callback error (prefixed "frame N: " for the frontend), no frame at all, no frame that
+  /// could be processed.
+  [[nodiscard]] Status execute(const FrameSource& next,
+                               const std::string& source_name,
+                               std::optional<int> max_frames,
+                               const RunCallbacks& callbacks);
+
+  [[nodiscard]] const Pipeline& pipeline() const { return pipe_; }
+  [[nodiscard]] const RunSummary& summary() const { return summary_; }
+
+ private:
+  Pipeline pipe_;
+  RunSummary summary_;
+};
+
+/// FrameSource over a rawlog reader (which must outlive it).
+[[nodiscard]] FrameSource frameSource(io::RawlogReader& reader);
+
+}  // namespace twocam::pipeline
