@@ -2,6 +2,9 @@
 
 #include <chrono>
 
+#include "frontend/corner_pairing.h"
+#include "frontend/row_support.h"
+
 namespace twocam::frontend {
 namespace {
 
