@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "bench_data.h"
+#include "frontend/corner_pairing.h"
 #include "frontend/cv_interop.h"
+#include "frontend/row_support.h"
 #include "frontend/salient_sad.h"
 
 namespace twocam::bench {
