@@ -32,6 +32,9 @@ constexpr int kMaxDisparities = 256;
 constexpr int kMaxRowTolerance = 8;
 constexpr int kMaxHypothesesLimit = 255;
 constexpr int kMaxRowSupportRadius = 16;
+/// Largest min/max_disparity_px: wider than any image matched here, and small enough that
+/// max_disparity_px + window_width_px and the curve-index arithmetic stay far inside int.
+constexpr int kMaxDisparityPx = 1 << 15;
 /// Largest padded curve length: 256 is already a multiple of every kernel's vector width.
 constexpr int kMaxPadded = kMaxDisparities;
 /// Bytes a kernel may read from a strip: padded length + 2W - 2 (the fused shiftable
@@ -109,7 +112,7 @@ struct StripSource {
 
 /// Runs the kernel for window `win` against columns [base, base + n + w - 1) of `image` row
 /// `row` (the caller guarantees they exist). cost[j], j < n, is valid afterwards.
-inline void costCurve(SadKernel kernel,
+inline void costCurve(Simd kernel,
                       const uint8_t* win,
                       int w,
                       const StripSource& source,

@@ -153,7 +153,7 @@ float rowDisparity(const uint16_t* cost, int n, int t_lo, int t_hi, int d_top) {
 float rowSpan(const ImageU8& left,
               const ImageU8& right,
               const SalientSadOptions& options,
-              SadKernel kernel,
+              Simd kernel,
               const Corner& corner,
               const DisparityHypothesis& hyp,
               CurveScratch* scratch) {
@@ -255,7 +255,7 @@ __attribute__((target("avx2"))) void rowSupportAvx2(const ImageU8& left,
                         row_above + 2 * width + start + 16 <= size &&
                         row_above + 2 * width + (start - d_top) + 32 <= size;
       if (!fast) {
-        hyp.row_span_px = rowSpan(left, right, options, SadKernel::kAvx2, corner, hyp, &scratch);
+        hyp.row_span_px = rowSpan(left, right, options, Simd::kAvx2, corner, hyp, &scratch);
         continue;
       }
       const uint8_t* la = left.data.data() + row_above + start;
@@ -286,9 +286,9 @@ Status measureRowSupport(const ImageU8& left,
     }
   }
   for (DisparityHypothesis& hyp : hyps->hypotheses) hyp.row_span_px = 0.0f;
-  const SadKernel kernel = internal::resolveKernel(options.kernel);
+  const Simd kernel = resolveSimd(options.simd);
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
-  if (kernel == SadKernel::kAvx2 && !options.zero_mean && options.window_width_px >= 4 &&
+  if (kernel == Simd::kAvx2 && !options.zero_mean && options.window_width_px >= 4 &&
       options.window_width_px <= 16) {
     rowSupportAvx2(left, right, options, hyps);
     return Status::ok();

@@ -345,42 +345,24 @@ __attribute__((target("avx2"))) void zeroMeanAvx2(const uint8_t* win,
 }
 #endif  // TWOCAM_HAVE_AVX2_KERNEL
 
-bool cpuHasAvx2() {
-#if defined(TWOCAM_HAVE_AVX2_KERNEL)
-  return __builtin_cpu_supports("avx2") != 0;
-#else
-  return false;
-#endif
-}
-
 }  // namespace
 
 // -------------------------------------------------------------------------------------------------
 
 namespace internal {
 
-SadKernel resolveKernel(SadKernel kernel) {
-  if (kernel != SadKernel::kAuto) return kernel;
-  if (cpuHasAvx2()) return SadKernel::kAvx2;
-#if defined(__SSE2__)
-  return SadKernel::kSse2;
-#else
-  return SadKernel::kScalar;
-#endif
-}
-
-int paddedLength(int n, SadKernel kernel) {
-  switch (resolveKernel(kernel)) {
-    case SadKernel::kSse2:
+int paddedLength(int n, Simd kernel) {
+  switch (resolveSimd(kernel)) {
+    case Simd::kSse2:
       return roundUp(n, 16);
-    case SadKernel::kAvx2:
+    case Simd::kAvx2:
       return roundUp(n, 32);
     default:
       return n;
   }
 }
 
-void sadPrefixCurves(SadKernel kernel,
+void sadPrefixCurves(Simd kernel,
                      const uint8_t* win,
                      const uint8_t* strip,
                      int n,
@@ -390,7 +372,7 @@ void sadPrefixCurves(SadKernel kernel,
   intervalPrefixCurves(kernel, win, strip, nullptr, n, ends, num_ends, outs);
 }
 
-void intervalPrefixCurves(SadKernel kernel,
+void intervalPrefixCurves(Simd kernel,
                           const uint8_t* win,
                           const uint8_t* strip_lo,
                           const uint8_t* strip_hi,
@@ -399,9 +381,9 @@ void intervalPrefixCurves(SadKernel kernel,
                           int num_ends,
                           uint16_t* const* outs) {
   const bool interval = strip_hi != nullptr;
-  switch (resolveKernel(kernel)) {
+  switch (resolveSimd(kernel)) {
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
-    case SadKernel::kAvx2:
+    case Simd::kAvx2:
       if (interval) {
         prefixAvx2<true>(win, strip_lo, strip_hi, n, ends, num_ends, outs);
       } else {
@@ -410,7 +392,7 @@ void intervalPrefixCurves(SadKernel kernel,
       return;
 #endif
 #if defined(__SSE2__)
-    case SadKernel::kSse2:
+    case Simd::kSse2:
       if (interval) {
         prefixSse2<true>(win, strip_lo, strip_hi, n, ends, num_ends, outs);
       } else {
@@ -473,7 +455,7 @@ void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi) {
   }
 }
 
-void sadCurve(SadKernel kernel,
+void sadCurve(Simd kernel,
               const uint8_t* win,
               int w,
               const uint8_t* strip,
@@ -483,7 +465,7 @@ void sadCurve(SadKernel kernel,
   intervalCurve(kernel, win, w, strip, nullptr, offsets, n, cost);
 }
 
-void intervalCurve(SadKernel kernel,
+void intervalCurve(Simd kernel,
                    const uint8_t* win,
                    int w,
                    const uint8_t* strip_lo,
@@ -496,9 +478,9 @@ void intervalCurve(SadKernel kernel,
     return;
   }
   const bool interval = strip_hi != nullptr;
-  switch (resolveKernel(kernel)) {
+  switch (resolveSimd(kernel)) {
 #if defined(TWOCAM_HAVE_AVX2_KERNEL)
-    case SadKernel::kAvx2:
+    case Simd::kAvx2:
       if (interval) {
         zeroMeanAvx2<true>(win, w, strip_lo, strip_hi, offsets, n, cost);
       } else {
@@ -507,7 +489,7 @@ void intervalCurve(SadKernel kernel,
       return;
 #endif
 #if defined(__SSE2__)
-    case SadKernel::kSse2:
+    case Simd::kSse2:
       if (interval) {
         zeroMeanSse2<true>(win, w, strip_lo, strip_hi, offsets, n, cost);
       } else {
@@ -522,22 +504,5 @@ void intervalCurve(SadKernel kernel,
 }
 
 }  // namespace internal
-
-bool sadKernelAvailable(SadKernel kernel) {
-  switch (kernel) {
-    case SadKernel::kAuto:
-    case SadKernel::kScalar:
-      return true;
-    case SadKernel::kSse2:
-#if defined(__SSE2__)
-      return true;
-#else
-      return false;
-#endif
-    case SadKernel::kAvx2:
-      return cpuHasAvx2();
-  }
-  return false;
-}
 
 }  // namespace twocam::frontend

@@ -2,26 +2,17 @@
 /// The SAD cost-curve kernels of the salient matcher (salient_sad.h) and their run-time choice:
 /// scalar C++, SSE2 (16 disparities per instruction) or AVX2 (32, checked at run time). One left
 /// pixel is compared against consecutive right pixels, summed in uint16 lanes; every kernel gives
-/// the scalar kernel's result bit for bit. Also the Birchfield-Tomasi sampling intervals.
+/// the scalar kernel's result bit for bit. Which one runs is the frontend's one SIMD choice
+/// (simd.h); the kernels take it as `kernel` (kAuto resolved by resolveSimd()). Also the
+/// Birchfield-Tomasi sampling intervals.
 
 #include <cstddef>  // before common/image.h, which uses size_t without including it
 #include <cstdint>
 
 #include "common/image.h"
+#include "frontend/simd.h"
 
 namespace twocam::frontend {
-
-/// Which implementation computes the SAD cost curves. All produce bit-identical results;
-/// the choice exists for tests (cross-checking) and benchmarks (speed-up figures).
-enum class SadKernel : uint8_t {
-  kAuto,    ///< Fastest available on this CPU: AVX2, else SSE2, else scalar.
-  kScalar,  ///< Portable C++ loops.
-  kSse2,    ///< 16 disparities per instruction (x86-64 baseline).
-  kAvx2,    ///< 32 disparities per instruction (checked at run time).
-};
-
-/// True when `kernel` can run on this build and CPU (kAuto and kScalar always can).
-[[nodiscard]] bool sadKernelAvailable(SadKernel kernel);
 
 namespace internal {
 
@@ -31,7 +22,7 @@ namespace internal {
 /// strip[i + j] + offsets[j]|, offsets[j] = round(mean(strip[j..j+w)) - mean(win)).
 /// Reads strip[0, paddedLength(n, kernel) + w - 1) and writes cost[0, paddedLength(n, kernel));
 /// entries at j >= n are unspecified. w in [1, 63], n in [1, 256].
-void sadCurve(SadKernel kernel,
+void sadCurve(Simd kernel,
               const uint8_t* win,
               int w,
               const uint8_t* strip,
@@ -44,7 +35,7 @@ void sadCurve(SadKernel kernel,
 /// ends increasing and ends[num_ends - 1] <= 125 (sums stay below 2^15). Differences of two
 /// prefixes give any window inside [0, ends[last]). Reads strip[0, paddedLength(n, kernel) +
 /// ends[last] - 1) and writes outs[k][0, paddedLength(n, kernel)).
-void sadPrefixCurves(SadKernel kernel,
+void sadPrefixCurves(Simd kernel,
                      const uint8_t* win,
                      const uint8_t* strip,
                      int n,
@@ -56,7 +47,7 @@ void sadPrefixCurves(SadKernel kernel,
 /// outs[k][j] = sum_{i < ends[k]} max(0, strip_lo[i + j] - win[i], win[i] - strip_hi[i + j]),
 /// strip_lo <= strip_hi element-wise. strip_hi == nullptr is plain SAD against strip_lo. Reads
 /// both strips as sadPrefixCurves reads its one.
-void intervalPrefixCurves(SadKernel kernel,
+void intervalPrefixCurves(Simd kernel,
                           const uint8_t* win,
                           const uint8_t* strip_lo,
                           const uint8_t* strip_hi,
@@ -68,7 +59,7 @@ void intervalPrefixCurves(SadKernel kernel,
 /// sadCurve with each strip pixel widened to an interval [strip_lo, strip_hi] (see
 /// intervalPrefixCurves); with offsets, the distance of win[i] + offsets[j] to the interval.
 /// strip_hi == nullptr is sadCurve.
-void intervalCurve(SadKernel kernel,
+void intervalCurve(Simd kernel,
                    const uint8_t* win,
                    int w,
                    const uint8_t* strip_lo,
@@ -82,10 +73,7 @@ void intervalCurve(SadKernel kernel,
 void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi);
 
 /// n rounded up to the kernel's vector width (kAuto resolved to the CPU's kernel).
-int paddedLength(int n, SadKernel kernel);
-
-/// The kernel kAuto stands for on this CPU.
-SadKernel resolveKernel(SadKernel kernel);
+int paddedLength(int n, Simd kernel);
 
 }  // namespace internal
 

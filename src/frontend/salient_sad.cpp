@@ -19,6 +19,7 @@ using internal::forEachLocalMinimum;
 using internal::kCurveStride;
 using internal::kGuard;
 using internal::kMaxDisparities;
+using internal::kMaxDisparityPx;
 using internal::kMaxHypothesesLimit;
 using internal::kMaxPadded;
 using internal::kMaxRowSupportRadius;
@@ -63,12 +64,14 @@ Status SalientSadOptions::validate() const {
     return fail("window_width_px = " + std::to_string(window_width_px) +
                 "; must be odd and in [3, 63]");
   }
-  if (min_disparity_px < 0) {
-    return fail("min_disparity_px = " + std::to_string(min_disparity_px) + "; must be >= 0");
+  if (min_disparity_px < 0 || min_disparity_px > kMaxDisparityPx) {
+    return fail("min_disparity_px = " + std::to_string(min_disparity_px) + "; must be in [0, " +
+                std::to_string(kMaxDisparityPx) + "]");
   }
-  if (max_disparity_px < min_disparity_px) {
+  if (max_disparity_px < min_disparity_px || max_disparity_px > kMaxDisparityPx) {
     return fail("max_disparity_px = " + std::to_string(max_disparity_px) +
-                "; must be >= min_disparity_px = " + std::to_string(min_disparity_px));
+                "; must be in [min_disparity_px = " + std::to_string(min_disparity_px) + ", " +
+                std::to_string(kMaxDisparityPx) + "]");
   }
   if (max_disparity_px - min_disparity_px + 1 > kMaxDisparities) {
     return fail("max_disparity_px - min_disparity_px + 1 = " +
@@ -87,11 +90,15 @@ Status SalientSadOptions::validate() const {
     return fail("complete_cost_ratio = " + std::to_string(complete_cost_ratio) +
                 "; must be finite and >= cost_ratio");
   }
-  if (min_separation_px < 1) {
-    return fail("min_separation_px = " + std::to_string(min_separation_px) + "; must be >= 1");
+  // A separation or tolerance wider than the searched range (<= 256 disparities) acts as that
+  // range; the bound keeps d +- tolerance inside int.
+  if (min_separation_px < 1 || min_separation_px > kMaxDisparities) {
+    return fail("min_separation_px = " + std::to_string(min_separation_px) + "; must be in [1, " +
+                std::to_string(kMaxDisparities) + "]");
   }
-  if (lr_tolerance_px < 0) {
-    return fail("lr_tolerance_px = " + std::to_string(lr_tolerance_px) + "; must be >= 0");
+  if (lr_tolerance_px < 0 || lr_tolerance_px > kMaxDisparities) {
+    return fail("lr_tolerance_px = " + std::to_string(lr_tolerance_px) + "; must be in [0, " +
+                std::to_string(kMaxDisparities) + "]");
   }
   if (!std::isfinite(max_cost_per_px) || max_cost_per_px <= 0.0f) {
     return fail("max_cost_per_px = " + std::to_string(max_cost_per_px) +
@@ -101,10 +108,7 @@ Status SalientSadOptions::validate() const {
     return fail("row_support_radius_px = " + std::to_string(row_support_radius_px) +
                 "; must be in [1, 16]");
   }
-  if (!sadKernelAvailable(kernel)) {
-    return fail("kernel = " + std::to_string(static_cast<int>(kernel)) +
-                " is not available on this CPU or build");
-  }
+  if (Status s = checkSimd("simd", simd); !s) return s;
   return Status::ok();
 }
 
@@ -118,7 +122,7 @@ Status matchSalient(const ImageU8& left,
   out->clear();
   out->points.reserve(corners.size());
 
-  const SadKernel kernel = internal::resolveKernel(options.kernel);
+  const Simd kernel = resolveSimd(options.simd);
   const int w = options.window_width_px;
   const int h = w / 2;
   const int m = options.row_tolerance_px;

@@ -15,7 +15,7 @@
 ///
 /// Both fill the same StereoHypotheses (common/features.h) so the two sources can be compared.
 /// measureRowSupport() (row_support.h) adds each hypothesis' agreement with the rows above and
-/// below. The cost-curve kernels and their choice (SadKernel) are in sad_kernels.h.
+/// below. The cost-curve kernels and their choice (Simd) are in sad_kernels.h.
 /// Disparity d = u_left - u_right >= 0 (docs: ../shared/METRICS.md).
 
 #include <cstddef>  // before common/image.h, which uses size_t without including it
@@ -100,8 +100,9 @@ struct SalientSadOptions {
   /// compared with the interval. false here (the papers' cost, and the matcher's stereo-eval
   /// figures); `twocam run` turns it on (docs/frontend.md, "Sampling-insensitive cost").
   bool birchfield_tomasi = false;
-  /// Which SAD implementation to run (results are identical; see SadKernel).
-  SadKernel kernel = SadKernel::kAuto;
+  /// Which SAD kernels run (frontend/simd.h; results are identical). Frontend sets it from
+  /// FrontendOptions::simd, the config's one SIMD knob (frontend.simd).
+  Simd simd = Simd::kAuto;
   /// Row support (measureRowSupport): after matching, the frontend matches each hypothesis'
   /// window on the rows above and below within +-row_support_radius_px of its disparity and
   /// stores the spread in DisparityHypothesis::row_span_px. Off for the matcher alone (its

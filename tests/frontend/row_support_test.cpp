@@ -137,9 +137,9 @@ TEST(RowSupport, EveryKernelGivesTheSameSpans) {
       StereoHypotheses reference;
       ASSERT_TRUE(matchSalient(left, right, corners, options, &reference).isOk());
       StereoHypotheses fast = reference;
-      options.kernel = SadKernel::kScalar;
+      options.simd = Simd::kScalar;
       ASSERT_TRUE(measureRowSupport(left, right, options, &reference).isOk());
-      options.kernel = SadKernel::kAuto;
+      options.simd = Simd::kAuto;
       ASSERT_TRUE(measureRowSupport(left, right, options, &fast).isOk());
       ASSERT_EQ(fast.hypotheses.size(), reference.hypotheses.size());
       int nonzero = 0;

@@ -46,19 +46,19 @@ TEST(SamplingIntervals, SpanEachPixelAndItsHalfPixelNeighbours) {
 // ---------------------------------------------------------------------------------------------
 // Kernels: every SIMD path must equal the scalar one bit for bit.
 
-std::vector<SadKernel> availableKernels() {
-  std::vector<SadKernel> kernels;
-  for (SadKernel k : {SadKernel::kScalar, SadKernel::kSse2, SadKernel::kAvx2}) {
-    if (sadKernelAvailable(k)) kernels.push_back(k);
+std::vector<Simd> availableKernels() {
+  std::vector<Simd> kernels;
+  for (Simd k : {Simd::kScalar, Simd::kSse2, Simd::kAvx2}) {
+    if (simdAvailable(k)) kernels.push_back(k);
   }
   return kernels;
 }
 
 TEST(SadKernels, CostCurvesBitIdenticalToScalar) {
   std::printf("[ kernels ] available:");
-  for (SadKernel k : availableKernels()) std::printf(" %d", static_cast<int>(k));
+  for (Simd k : availableKernels()) std::printf(" %d", static_cast<int>(k));
   std::printf(" (1 scalar, 2 SSE2, 3 AVX2); auto = %d\n",
-              static_cast<int>(internal::resolveKernel(SadKernel::kAuto)));
+              static_cast<int>(resolveSimd(Simd::kAuto)));
   std::mt19937 rng(91);
   std::uniform_int_distribution<int> byte(0, 255);
   std::uniform_int_distribution<int> half_width(0, 31);
@@ -82,8 +82,8 @@ TEST(SadKernels, CostCurvesBitIdenticalToScalar) {
     const bool zero_mean = trial % 2 == 1;
     for (int16_t& o : offsets) o = static_cast<int16_t>(byte(rng) * 2 - 255);
     const int16_t* off = zero_mean ? offsets.data() : nullptr;
-    internal::sadCurve(SadKernel::kScalar, win.data(), w, strip.data(), off, n, reference.data());
-    for (SadKernel k : availableKernels()) {
+    internal::sadCurve(Simd::kScalar, win.data(), w, strip.data(), off, n, reference.data());
+    for (Simd k : availableKernels()) {
       std::fill(cost.begin(), cost.end(), uint16_t{0xFFFF});
       internal::sadCurve(k, win.data(), w, strip.data(), off, n, cost.data());
       for (int j = 0; j < n; ++j) {
@@ -120,18 +120,13 @@ TEST(SadKernels, PrefixCurvesEqualDirectWindows) {
     for (uint8_t& b : win) b = static_cast<uint8_t>(byte(rng));
     for (uint8_t& b : strip) b = static_cast<uint8_t>(byte(rng));
     const int ends[5] = {h, 2 * h, 2 * h + 1, 3 * h + 1, 4 * h + 1};
-    for (SadKernel k : availableKernels()) {
+    for (Simd k : availableKernels()) {
       uint16_t* const outs[5] = {
           prefix[0].data(), prefix[1].data(), prefix[2].data(), prefix[3].data(), prefix[4].data()};
       internal::sadPrefixCurves(k, win.data(), strip.data(), n, ends, 5, outs);
       for (int a = 0; a < 3; ++a) {  // window starting at offset 0, h, 2h
-        internal::sadCurve(SadKernel::kScalar,
-                           win.data() + a * h,
-                           w,
-                           strip.data() + a * h,
-                           nullptr,
-                           n,
-                           direct.data());
+        internal::sadCurve(
+            Simd::kScalar, win.data() + a * h, w, strip.data() + a * h, nullptr, n, direct.data());
         for (int j = 0; j < n; ++j) {
           const int from_prefix =
               a == 0 ? prefix[2][j]
@@ -173,7 +168,7 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
     const int ends[3] = {h, 2 * h + 1, 4 * h + 1};
     uint16_t* const ref_outs[3] = {reference[0].data(), reference[1].data(), reference[2].data()};
     internal::intervalPrefixCurves(
-        SadKernel::kScalar, win.data(), lo.data(), hi.data(), n, ends, 3, ref_outs);
+        Simd::kScalar, win.data(), lo.data(), hi.data(), n, ends, 3, ref_outs);
     for (int e = 0; e < 3; ++e) {
       const int j = trial % n;
       int expected = 0;
@@ -182,7 +177,7 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
       }
       ASSERT_EQ(reference[e][j], expected) << "trial " << trial << " end " << ends[e];
     }
-    for (SadKernel k : availableKernels()) {
+    for (Simd k : availableKernels()) {
       uint16_t* const outs[3] = {out[0].data(), out[1].data(), out[2].data()};
       internal::intervalPrefixCurves(k, win.data(), lo.data(), hi.data(), n, ends, 3, outs);
       for (int e = 0; e < 3; ++e) {
@@ -199,14 +194,8 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
     // Zero-mean: the distance of win[i] + offsets[j] to the interval, on every kernel.
     const int w = 2 * h + 1;
     for (int16_t& o : offsets) o = static_cast<int16_t>(byte(rng) * 2 - 255);
-    internal::intervalCurve(SadKernel::kScalar,
-                            win.data(),
-                            w,
-                            lo.data(),
-                            hi.data(),
-                            offsets.data(),
-                            n,
-                            reference[0].data());
+    internal::intervalCurve(
+        Simd::kScalar, win.data(), w, lo.data(), hi.data(), offsets.data(), n, reference[0].data());
     const int j = (trial * 7) % n;
     int expected = 0;
     for (int i = 0; i < w; ++i) {
@@ -214,7 +203,7 @@ TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
       expected += std::max({0, lo[i + j] - x, x - hi[i + j]});
     }
     ASSERT_EQ(reference[0][j], expected) << "zero-mean, trial " << trial;
-    for (SadKernel k : availableKernels()) {
+    for (Simd k : availableKernels()) {
       std::fill(out[0].begin(), out[0].end(), uint16_t{0xFFFF});
       internal::intervalCurve(
           k, win.data(), w, lo.data(), hi.data(), offsets.data(), n, out[0].data());
@@ -270,12 +259,12 @@ TEST(SadKernels, MatcherOutputIdenticalAcrossKernels) {
       options.birchfield_tomasi = cost >= 2;
       options.row_tolerance_px = m;
       options.max_disparity_px = 40;  // 41 disparities: a partial last vector
-      options.kernel = SadKernel::kScalar;
+      options.simd = Simd::kScalar;
       StereoHypotheses reference;
       ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &reference).isOk());
       ASSERT_FALSE(reference.hypotheses.empty());
-      for (SadKernel k : availableKernels()) {
-        options.kernel = k;
+      for (Simd k : availableKernels()) {
+        options.simd = k;
         StereoHypotheses out;
         ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &out).isOk());
         EXPECT_TRUE(sameHypotheses(reference, out))

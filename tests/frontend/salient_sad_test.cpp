@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -58,11 +59,47 @@ TEST(SalientSadOptions, NamesTheBrokenConstraint) {
   add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = -1; });
   add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = 0.0f; });
   add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = INFINITY; });
+  // Upper bounds the code can honour (UBSan: lr_tolerance_px = INT_MAX overflowed d +- tolerance
+  // in the right-to-left check; max_disparity_px = INT_MAX overflowed max - min + 1 here and
+  // max + W in the input check).
+  constexpr int kIntMax = std::numeric_limits<int>::max();
+  add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = kIntMax; });
+  add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = 257; });
+  add("min_separation_px", [](SalientSadOptions& o) { o.min_separation_px = kIntMax; });
+  add("max_disparity_px", [](SalientSadOptions& o) { o.max_disparity_px = kIntMax; });
+  add("min_disparity_px", [](SalientSadOptions& o) {
+    o.min_disparity_px = kIntMax - 1;
+    o.max_disparity_px = kIntMax;
+  });
+  add("window_width_px", [](SalientSadOptions& o) { o.window_width_px = kIntMax; });
+  add("row_tolerance_px", [](SalientSadOptions& o) { o.row_tolerance_px = kIntMax; });
+  add("max_hypotheses", [](SalientSadOptions& o) { o.max_hypotheses = kIntMax; });
+  add("row_support_radius_px", [](SalientSadOptions& o) { o.row_support_radius_px = kIntMax; });
+  add("complete_cost_ratio", [](SalientSadOptions& o) { o.complete_cost_ratio = NAN; });
+  add("complete_cost_ratio", [](SalientSadOptions& o) { o.complete_cost_ratio = INFINITY; });
+  add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = NAN; });
   for (const Case& c : cases) {
     const Status s = c.options.validate();
     ASSERT_FALSE(s.isOk()) << c.field;
     EXPECT_NE(s.message().find(c.field), std::string::npos) << s.message();
   }
+}
+
+// The largest accepted tolerance and separation run through the matcher (and its right-to-left
+// check) like any other value: the tolerance wider than the range accepts every hypothesis.
+TEST(SalientSadOptions, LargestAcceptedBoundsMatch) {
+  const cv::Mat tex = randomTexture(400, 120, 5);
+  const StereoPair pair = shiftedPair(tex, 320, 96, 12);
+  SalientSadOptions options;
+  options.lr_tolerance_px = 256;
+  options.min_separation_px = 256;
+  ASSERT_TRUE(options.validate().isOk()) << options.validate().message();
+  StereoHypotheses out;
+  ASSERT_TRUE(
+      matchSalient(pair.left, pair.right, gridCorners(80, 300, 20, 80, 20), options, &out).isOk());
+  ASSERT_FALSE(out.hypotheses.empty());
+  for (const DisparityHypothesis& h : out.hypotheses) EXPECT_TRUE(h.lr_consistent);
+  for (const SalientPoint& p : out.points) EXPECT_LE(p.num_hypotheses, 1u);  // one per range
 }
 
 TEST(SalientSad, RejectsBadInput) {
