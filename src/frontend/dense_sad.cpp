@@ -6,14 +6,15 @@
 #include <limits>
 #include <sstream>
 
-// Hot loops are plain loops that GCC auto-vectorises; on x86-64 they are also compiled for
-// AVX2 and picked at load time (function multiversioning), the default clone stays SSE2.
-// Define TWOCAM_NO_TARGET_CLONES to build the baseline path alone (to compare the two).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
-    !defined(TWOCAM_NO_TARGET_CLONES)
-#define TWOCAM_CLONE_AVX2 __attribute__((target_clones("avx2", "default")))
+// Hot loops are plain loops that GCC auto-vectorises; on x86-64 matchRow is also compiled for
+// AVX2 (a target("avx2") copy of the same always-inline body), chosen at run time by
+// DenseSadOptions::simd (frontend/simd.h); the baseline copy stays SSE2.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define TWOCAM_DENSE_HAVE_AVX2 1
+#define TWOCAM_DENSE_ALWAYS_INLINE inline __attribute__((always_inline))
 #else
-#define TWOCAM_CLONE_AVX2
+#define TWOCAM_DENSE_HAVE_AVX2 0
+#define TWOCAM_DENSE_ALWAYS_INLINE inline
 #endif
 
 namespace twocam::frontend {
@@ -118,14 +119,13 @@ struct IndexTable {
 };
 constexpr IndexTable kIndex;
 
-TWOCAM_CLONE_AVX2
-void matchRow(const uint8_t* __restrict left,
-              const uint8_t* __restrict right_rev,
-              const RowSetup& setup,
-              uint16_t* __restrict sums,
-              int16_t* __restrict right_cost,
-              uint16_t* __restrict right_index,
-              int16_t* __restrict out) {
+TWOCAM_DENSE_ALWAYS_INLINE void matchRowBody(const uint8_t* __restrict left,
+                                             const uint8_t* __restrict right_rev,
+                                             const RowSetup& setup,
+                                             uint16_t* __restrict sums,
+                                             int16_t* __restrict right_cost,
+                                             uint16_t* __restrict right_index,
+                                             int16_t* __restrict out) {
   const int width = setup.width;
   const int r = setup.radius;
   const int num_d = setup.num_d;
@@ -237,6 +237,41 @@ void matchRow(const uint8_t* __restrict left,
     }
     out[u] = static_cast<int16_t>(d_fixed);
   }
+}
+
+void matchRowBaseline(const uint8_t* __restrict left,
+                      const uint8_t* __restrict right_rev,
+                      const RowSetup& setup,
+                      uint16_t* __restrict sums,
+                      int16_t* __restrict right_cost,
+                      uint16_t* __restrict right_index,
+                      int16_t* __restrict out) {
+  matchRowBody(left, right_rev, setup, sums, right_cost, right_index, out);
+}
+
+#if TWOCAM_DENSE_HAVE_AVX2
+__attribute__((target("avx2"))) void matchRowAvx2(const uint8_t* __restrict left,
+                                                  const uint8_t* __restrict right_rev,
+                                                  const RowSetup& setup,
+                                                  uint16_t* __restrict sums,
+                                                  int16_t* __restrict right_cost,
+                                                  uint16_t* __restrict right_index,
+                                                  int16_t* __restrict out) {
+  matchRowBody(left, right_rev, setup, sums, right_cost, right_index, out);
+}
+#endif
+
+/// The row matcher of a SIMD choice: the AVX2 copy for kAvx2 (kAuto on an AVX2 CPU), else the
+/// baseline copy. Same results: the same integer code, compiled twice.
+using MatchRowFn = void (*)(
+    const uint8_t*, const uint8_t*, const RowSetup&, uint16_t*, int16_t*, uint16_t*, int16_t*);
+MatchRowFn matchRowFor(Simd simd) {
+#if TWOCAM_DENSE_HAVE_AVX2
+  if (resolveSimd(simd) == Simd::kAvx2) return matchRowAvx2;
+#else
+  (void)simd;
+#endif
+  return matchRowBaseline;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -459,7 +494,8 @@ Status DenseSadOptions::validate() const {
   } else if (static_cast<float>(max_disparity_px) + 1.0f > kMaxDisparityValuePx) {
     msg << "max_disparity_px = " << max_disparity_px << "; must be < " << kMaxDisparityValuePx;
   } else if (!(lr_tolerance_px >= 0.0f) || lr_tolerance_px > kMaxDisparityValuePx) {
-    msg << "lr_tolerance_px = " << lr_tolerance_px << "; must be >= 0";
+    msg << "lr_tolerance_px = " << lr_tolerance_px << "; must be in [0, " << kMaxDisparityValuePx
+        << "]";
   } else if (propagation_width_px < 3 || propagation_width_px % 2 == 0 ||
              propagation_width_px > 255) {
     msg << "propagation_width_px = " << propagation_width_px << "; must be odd and in [3, 255]";
@@ -469,6 +505,8 @@ Status DenseSadOptions::validate() const {
     msg << "median_height_px = " << median_height_px << "; must be odd and in [1, 255]";
   } else if (uniqueness_percent < 0 || uniqueness_percent > 1000) {
     msg << "uniqueness_percent = " << uniqueness_percent << "; must be in [0, 1000]";
+  } else if (Status st = checkSimd("simd", simd); !st) {
+    msg << st.message();
   } else {
     return Status::ok();
   }
@@ -511,6 +549,7 @@ Status DenseSadMatcher::compute(const ImageU8& left,
   setup.subpixel = options.subpixel;
   setup.uniqueness_percent = options.uniqueness_percent;
   const int r = setup.radius;
+  const MatchRowFn match_row = matchRowFor(options.simd);
 
   left_row_.resize(static_cast<size_t>(width + 2 * r));
   right_row_.resize(static_cast<size_t>(width + 2 * r + setup.min_d + setup.num_d));
@@ -531,13 +570,13 @@ Status DenseSadMatcher::compute(const ImageU8& left,
     std::reverse_copy(rr, rr + width, right_row_.begin() + r);
     std::fill(right_row_.begin() + r + width, right_row_.end(), rr[0]);
     int16_t* out = left_fixed_.data() + static_cast<size_t>(v) * width;
-    matchRow(left_row_.data(),
-             right_row_.data(),
-             setup,
-             sums_.data(),
-             right_cost_.data(),
-             right_index_.data(),
-             out);
+    match_row(left_row_.data(),
+              right_row_.data(),
+              setup,
+              sums_.data(),
+              right_cost_.data(),
+              right_index_.data(),
+              out);
     int16_t* right_out = right_fixed_.data() + static_cast<size_t>(v) * width;
     for (int u_r = 0; u_r < width; ++u_r) {
       const uint16_t j = right_index_[static_cast<size_t>(width - 1 - u_r)];

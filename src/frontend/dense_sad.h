@@ -35,6 +35,7 @@
 
 #include "common/image.h"
 #include "common/status.h"
+#include "frontend/simd.h"
 
 namespace twocam::frontend {
 
@@ -101,6 +102,9 @@ struct DenseSadOptions {
   /// propagated themselves. 10, inside OpenCV's suggested 5..15: on Tsukuba 5..20 all take
   /// bad1 from 9.6 % (off) to 8.75 % with the other defaults.
   int uniqueness_percent = 10;
+  /// Which build of the row matcher runs (frontend/simd.h): kAvx2 (kAuto on an AVX2 CPU) the
+  /// AVX2 copy, any other the baseline (SSE2 on x86-64) copy. Same results bit for bit.
+  Simd simd = Simd::kAuto;
 
   /// Names the first broken constraint, e.g. "window_width_px = 8; must be odd".
   [[nodiscard]] Status validate() const;

@@ -2,6 +2,9 @@
 
 #include <chrono>
 
+#include "frontend/corner_pairing.h"
+#include "frontend/row_support.h"
+
 namespace twocam::frontend {
 namespace {
 
@@ -27,13 +30,24 @@ const char* hypothesisSourceName(HypothesisSource source) {
 }
 
 Status FrontendOptions::validate() const {
-  if (Status s = harris.validate(); !s) return Status::error("frontend.harris: " + s.message());
-  if (Status s = sad.validate(); !s) return Status::error("frontend.sad: " + s.message());
+  if (Status s = checkSimd("frontend.simd", simd); !s) return s;
+  // The components' messages start with the field name: "frontend.harris.border_px = ...".
+  if (Status s = harris.validate(); !s) return Status::error("frontend.harris." + s.message());
+  if (Status s = sad.validate(); !s) return Status::error("frontend.sad." + s.message());
   return Status::ok();
 }
 
+FrontendOptions FrontendOptions::applied() const {
+  FrontendOptions out = *this;
+  out.harris.simd = simd;
+  out.sad.simd = simd;
+  return out;
+}
+
 Frontend::Frontend(const FrontendOptions& options)
-    : options_(options), left_detector_(options.harris), right_detector_(options.harris) {
+    : options_(options.applied()),
+      left_detector_(options_.harris),
+      right_detector_(options_.harris) {
   const Status s = options.validate();
   TWOCAM_CHECK(s.isOk()) << s.message();
 }

@@ -30,8 +30,14 @@ struct FrontendOptions {
   /// Where hypotheses come from. SAD by default: it measures every disparity of the search range,
   /// while pairing needs the right corner to be detected too (see docs/frontend.md for figures).
   HypothesisSource source = HypothesisSource::kSad;
+  /// The one SIMD choice of the frontend (frontend/simd.h, config key frontend.simd): Frontend
+  /// runs Harris and the salient kernels with it, overriding harris.simd and sad.simd. Results
+  /// are identical for every choice; auto picks the fastest this CPU runs.
+  Simd simd = Simd::kAuto;
 
   [[nodiscard]] Status validate() const;
+  /// A copy with harris.simd and sad.simd set to simd (what Frontend runs).
+  [[nodiscard]] FrontendOptions applied() const;
 };
 
 /// Per-frame timings [ms] of the last process() call.
@@ -43,7 +49,7 @@ struct FrontendTiming {
 
 class Frontend {
  public:
-  /// CHECK-fails on invalid options (validate them first).
+  /// CHECK-fails on invalid options (validate them first). options() returns options.applied().
   explicit Frontend(const FrontendOptions& options);
 
   /// Corners and hypotheses of one rectified frame; out->t_ns = frame.t_ns. Errors for empty or

@@ -24,6 +24,12 @@ constexpr int kResponseMargin = 3;
 constexpr int kMinBorderPx = kResponseMargin + 1;
 /// Largest accepted bucketing grid side [cells].
 constexpr int kMaxGridSide = 4096;
+/// Largest accepted border [px]: keeps 2 border_px + 1 (the smallest image side) and the row
+/// arithmetic far inside int; an image more than 65536 px on a side is beyond any camera here.
+constexpr int kMaxBorderPx = 1 << 15;
+/// Largest corner budget (target_count, max_corners, max_per_cell): 2^24 is more than one
+/// corner per pixel of a 4096 x 4096 image, and keeps counts exact in float and int arithmetic.
+constexpr int kMaxCornerBudget = 1 << 24;
 /// The integer tensor entries carry the unnormalised binomial weights (16 x 16 = 256); det and
 /// trace^2 carry 256^2, divided out here (a power of two, so exact).
 constexpr float kResponseScale = 1.0f / 65536.0f;
@@ -246,14 +252,14 @@ void runPipelinePortable(const PipelineJob& job) { runPipeline(job); }
 __attribute__((target("avx2"))) void runPipelineAvx2(const PipelineJob& job) { runPipeline(job); }
 #endif
 
-void dispatchPipeline(const PipelineJob& job, bool use_avx2) {
+void dispatchPipeline(const PipelineJob& job, Simd simd) {
 #if TWOCAM_HARRIS_HAVE_AVX2
-  if (use_avx2 && internal::harrisAvx2Available()) {
+  if (resolveSimd(simd) == Simd::kAvx2 && internal::harrisAvx2Available()) {
     runPipelineAvx2(job);
     return;
   }
 #else
-  (void)use_avx2;
+  (void)simd;
 #endif
   runPipelinePortable(job);
 }
@@ -334,12 +340,14 @@ Status checkThreshold(float threshold) {
 
 Status HarrisOptions::validate() const {
   if (!(k > 0.0f && k < 0.25f)) return Status::error("k = " + str(k) + "; must be in (0, 0.25)");
-  if (border_px < kMinBorderPx) {
-    return Status::error("border_px = " + str(border_px) + "; must be >= " + str(kMinBorderPx) +
-                         " (reach of the Sobel, binomial and suppression kernels)");
+  if (border_px < kMinBorderPx || border_px > kMaxBorderPx) {
+    return Status::error("border_px = " + str(border_px) + "; must be in [" + str(kMinBorderPx) +
+                         ", " + str(kMaxBorderPx) +
+                         "] (at least the reach of the Sobel, binomial and suppression kernels)");
   }
-  if (target_count < 1) {
-    return Status::error("target_count = " + str(target_count) + "; must be >= 1");
+  if (target_count < 1 || target_count > kMaxCornerBudget) {
+    return Status::error("target_count = " + str(target_count) + "; must be in [1, " +
+                         str(kMaxCornerBudget) + "]");
   }
   if (!(std::isfinite(threshold_min) && threshold_min > 0.0f)) {
     return Status::error("threshold_min = " + str(threshold_min) + "; must be finite and > 0");
@@ -356,8 +364,9 @@ Status HarrisOptions::validate() const {
     return Status::error("threshold_adapt_rate = " + str(threshold_adapt_rate) +
                          "; must be in [0, 1]");
   }
-  if (max_corners < 1) {
-    return Status::error("max_corners = " + str(max_corners) + "; must be >= 1");
+  if (max_corners < 1 || max_corners > kMaxCornerBudget) {
+    return Status::error("max_corners = " + str(max_corners) + "; must be in [1, " +
+                         str(kMaxCornerBudget) + "]");
   }
   // The upper bound keeps the per-cell counters small; finer grids than that are finer than pixels.
   if (grid_cols < 1 || grid_cols > kMaxGridSide) {
@@ -368,9 +377,11 @@ Status HarrisOptions::validate() const {
     return Status::error("grid_rows = " + str(grid_rows) + "; must be in [1, " + str(kMaxGridSide) +
                          "]");
   }
-  if (max_per_cell < 1) {
-    return Status::error("max_per_cell = " + str(max_per_cell) + "; must be >= 1");
+  if (max_per_cell < 1 || max_per_cell > kMaxCornerBudget) {
+    return Status::error("max_per_cell = " + str(max_per_cell) + "; must be in [1, " +
+                         str(kMaxCornerBudget) + "]");
   }
+  if (Status s = checkSimd("simd", simd); !s) return s;
   return Status::ok();
 }
 
@@ -397,7 +408,7 @@ Status harrisResponse(const ImageU8& image, const HarrisOptions& options, ImageF
   job.k = options.k;
   job.response = response;
   job.workspace = &ws;
-  dispatchPipeline(job, options.use_avx2);
+  dispatchPipeline(job, options.simd);
   return Status::ok();
 }
 
@@ -471,7 +482,7 @@ Status detectHarrisCorners(const ImageU8& image,
   job.k = options.k;
   job.threshold = threshold;
   job.workspace = workspace;
-  dispatchPipeline(job, options.use_avx2);
+  dispatchPipeline(job, options.simd);
   const int num_candidates = static_cast<int>(workspace->keys.size());
   const float rank_response =
       selectFromKeys(image.width, image.height, options, workspace, corners);

@@ -26,6 +26,7 @@
 #include "common/features.h"
 #include "common/image.h"
 #include "common/status.h"
+#include "frontend/simd.h"
 
 namespace twocam::frontend {
 
@@ -71,9 +72,10 @@ struct HarrisOptions {
   /// Corners kept per bucketing cell, strongest first. 40 x 48 cells = 1920, about 2x the
   /// target, so bucketing trims dense cells without starving the frame.
   int max_per_cell = 40;
-  /// Use the AVX2 build of the kernels when the CPU supports it. false forces the portable build
-  /// (same results bit for bit; for tests and profiling).
-  bool use_avx2 = true;
+  /// Which build of the fused pipeline runs (frontend/simd.h): kAvx2 (kAuto on an AVX2 CPU) the
+  /// AVX2 build, any other the baseline build. Same results bit for bit; for tests and profiling.
+  /// Frontend sets it from FrontendOptions::simd, the config's one SIMD knob (frontend.simd).
+  Simd simd = Simd::kAuto;
 
   /// Names the first broken constraint, e.g. "k = 0.3; must be in (0, 0.25)".
   [[nodiscard]] Status validate() const;
@@ -83,7 +85,7 @@ struct HarrisOptions {
 /// harrisResponse needs 7 (its valid region starts 3 px from each edge).
 int minHarrisImageSide(const HarrisOptions& options);
 
-/// Harris response of every pixel in the fixed scale above (only options.k and use_avx2 matter).
+/// Harris response of every pixel in the fixed scale above (only options.k and simd matter).
 /// Pixels closer than 3 px to an edge, where the kernels do not fit, are 0. `response` is resized
 /// to the image size. Fails on an empty or inconsistent image, a side below 7 px, invalid
 /// options or a null output; `response` is left untouched then.

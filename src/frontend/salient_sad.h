@@ -9,11 +9,13 @@
 ///   hypotheses (up to max_hypotheses), each with a parabola-fitted sub-pixel disparity and a
 ///   right-to-left consistency flag. The SAD runs 16 (SSE2) or 32 (AVX2) disparities per
 ///   instruction: one left pixel against consecutive right pixels, summed in uint16 lanes.
-/// - pairCorners(): Paper A §5.5.2 "spurious matching". Every right corner inside the search
-///   window W_m(F_i) (rows v +- m, disparities in range) is a hypothesis for left corner F_i;
-///   the database, not the matcher, decides which one is real.
+/// - pairCorners() (corner_pairing.h): Paper A §5.5.2 "spurious matching". Every right corner
+///   inside the search window W_m(F_i) (rows v +- m, disparities in range) is a hypothesis for
+///   left corner F_i; the database, not the matcher, decides which one is real.
 ///
 /// Both fill the same StereoHypotheses (common/features.h) so the two sources can be compared.
+/// measureRowSupport() (row_support.h) adds each hypothesis' agreement with the rows above and
+/// below. The cost-curve kernels and their choice (Simd) are in sad_kernels.h.
 /// Disparity d = u_left - u_right >= 0 (docs: ../shared/METRICS.md).
 
 #include <cstddef>  // before common/image.h, which uses size_t without including it
@@ -23,20 +25,9 @@
 #include "common/features.h"
 #include "common/image.h"
 #include "common/status.h"
+#include "frontend/sad_kernels.h"
 
 namespace twocam::frontend {
-
-/// Which implementation computes the SAD cost curves. All produce bit-identical results;
-/// the choice exists for tests (cross-checking) and benchmarks (speed-up figures).
-enum class SadKernel : uint8_t {
-  kAuto,    ///< Fastest available on this CPU: AVX2, else SSE2, else scalar.
-  kScalar,  ///< Portable C++ loops.
-  kSse2,    ///< 16 disparities per instruction (x86-64 baseline).
-  kAvx2,    ///< 32 disparities per instruction (checked at run time).
-};
-
-/// True when `kernel` can run on this build and CPU (kAuto and kScalar always can).
-[[nodiscard]] bool sadKernelAvailable(SadKernel kernel);
 
 struct SalientSadOptions {
   /// Width W of the 1xW matching window [px], odd, in [3, 63]. 11 is inside Paper B's
@@ -109,8 +100,9 @@ struct SalientSadOptions {
   /// compared with the interval. false here (the papers' cost, and the matcher's stereo-eval
   /// figures); `twocam run` turns it on (docs/frontend.md, "Sampling-insensitive cost").
   bool birchfield_tomasi = false;
-  /// Which SAD implementation to run (results are identical; see SadKernel).
-  SadKernel kernel = SadKernel::kAuto;
+  /// Which SAD kernels run (frontend/simd.h; results are identical). Frontend sets it from
+  /// FrontendOptions::simd, the config's one SIMD knob (frontend.simd).
+  Simd simd = Simd::kAuto;
   /// Row support (measureRowSupport): after matching, the frontend matches each hypothesis'
   /// window on the rows above and below within +-row_support_radius_px of its disparity and
   /// stores the spread in DisparityHypothesis::row_span_px. Off for the matcher alone (its
@@ -151,44 +143,6 @@ Status matchSalient(const ImageU8& left,
                     const SalientSadOptions& options,
                     StereoHypotheses* out);
 
-/// Paper A's spurious matching: every right corner (ur, vr) with |vr - v| <= m and
-/// d = u - ur in [min_disparity_px, max_disparity_px] is a hypothesis of left corner (u, v),
-/// with d_px = d (integer: both corners are integer pixels), row_offset_px = vr - v and cost
-/// the 1xW SAD (plain or zero-mean as options say) between the two corners' windows (with
-/// shiftable_windows, the lowest over the three alignments that fit both images). The
-/// max_hypotheses cheapest are kept, ranked by cost (ties: smaller disparity first); those
-/// above max_cost_per_px * W are dropped. cost_ratio, min_separation_px and lr_tolerance_px
-/// are not used: Paper A keeps every pair in the window.
-///
-/// lr_consistent (when options.lr_check) is the mutual-best test among corners: true when no
-/// other left corner pairs with the same right corner at a lower cost (ties all count).
-///
-/// Points, skipping and errors as matchSalient (right corners whose window does not fit the
-/// right image are ignored). Right corners are bucketed by row, so the work is
-/// O(left corners x right corners per 2m+1 rows), not all pairs.
-Status pairCorners(const ImageU8& left,
-                   const ImageU8& right,
-                   const std::vector<Corner>& left_corners,
-                   const std::vector<Corner>& right_corners,
-                   const SalientSadOptions& options,
-                   StereoHypotheses* out);
-
-/// Row support of every hypothesis in `hyps` (computed on `left`/`right`, the pair the
-/// hypotheses came from): for the rows v - 1 and v + 1 that exist (right rows shifted by the
-/// hypothesis' row_offset_px), the 1xW window of the hypothesis' alignment (window_shift_px)
-/// is compared with the right image at integer disparities D - R - 1 .. D + R + 1 (D = the
-/// rounded d_px, R = options.row_support_radius_px, clipped to the image); the cheapest of
-/// D - R .. D + R, parabola-refined, is that row's disparity. row_span_px = max - min of d_px
-/// and those row disparities (0 when neither row could be matched). A row whose best lies at
-/// D +- R therefore adds about R px: it prefers a disparity outside the radius. With AVX2 (and
-/// plain SAD, 4 <= W <= 16) the costs come from SSE4.1's mpsadbw; the result is the same bit for
-/// bit. Errors (hyps untouched) as matchSalient's input checks, or for a point whose hypothesis
-/// range runs past the hypotheses.
-Status measureRowSupport(const ImageU8& left,
-                         const ImageU8& right,
-                         const SalientSadOptions& options,
-                         StereoHypotheses* hyps);
-
 /// The point's rank-0 hypothesis when it passed the right-to-left check and no rival that
 /// disagrees with it by more than agree_px [px] did; nullptr otherwise (no hypotheses, best
 /// inconsistent, or ambiguous: consistent rivals at another depth). Rivals within agree_px
@@ -198,71 +152,5 @@ Status measureRowSupport(const ImageU8& left,
 [[nodiscard]] const DisparityHypothesis* confidentBest(const StereoHypotheses& hyps,
                                                        const SalientPoint& point,
                                                        float agree_px = 1.0f);
-
-namespace internal {
-
-/// The SAD cost-curve kernel, exposed for tests and benchmarks:
-/// cost[j] = sum_{i<w} |win[i] - strip[i + j]| for j in [0, n) (zero_mean == false), or with
-/// each window's rounded mean removed when offsets != nullptr: cost[j] = sum_i |win[i] -
-/// strip[i + j] + offsets[j]|, offsets[j] = round(mean(strip[j..j+w)) - mean(win)).
-/// Reads strip[0, paddedLength(n, kernel) + w - 1) and writes cost[0, paddedLength(n, kernel));
-/// entries at j >= n are unspecified. w in [1, 63], n in [1, 256].
-void sadCurve(SadKernel kernel,
-              const uint8_t* win,
-              int w,
-              const uint8_t* strip,
-              const int16_t* offsets,
-              int n,
-              uint16_t* cost);
-
-/// Prefix cost curves of plain SAD, one pass for several window lengths:
-/// outs[k][j] = sum_{i < ends[k]} |win[i] - strip[i + j]| for j in [0, n), k < num_ends, with
-/// ends increasing and ends[num_ends - 1] <= 125 (sums stay below 2^15). Differences of two
-/// prefixes give any window inside [0, ends[last]). Reads strip[0, paddedLength(n, kernel) +
-/// ends[last] - 1) and writes outs[k][0, paddedLength(n, kernel)).
-void sadPrefixCurves(SadKernel kernel,
-                     const uint8_t* win,
-                     const uint8_t* strip,
-                     int n,
-                     const int* ends,
-                     int num_ends,
-                     uint16_t* const* outs);
-
-/// sadPrefixCurves with each strip pixel widened to an interval (Birchfield-Tomasi):
-/// outs[k][j] = sum_{i < ends[k]} max(0, strip_lo[i + j] - win[i], win[i] - strip_hi[i + j]),
-/// strip_lo <= strip_hi element-wise. strip_hi == nullptr is plain SAD against strip_lo. Reads
-/// both strips as sadPrefixCurves reads its one.
-void intervalPrefixCurves(SadKernel kernel,
-                          const uint8_t* win,
-                          const uint8_t* strip_lo,
-                          const uint8_t* strip_hi,
-                          int n,
-                          const int* ends,
-                          int num_ends,
-                          uint16_t* const* outs);
-
-/// sadCurve with each strip pixel widened to an interval [strip_lo, strip_hi] (see
-/// intervalPrefixCurves); with offsets, the distance of win[i] + offsets[j] to the interval.
-/// strip_hi == nullptr is sadCurve.
-void intervalCurve(SadKernel kernel,
-                   const uint8_t* win,
-                   int w,
-                   const uint8_t* strip_lo,
-                   const uint8_t* strip_hi,
-                   const int16_t* offsets,
-                   int n,
-                   uint16_t* cost);
-
-/// Birchfield-Tomasi intervals of every row of `image`: lo (hi) is the smallest (largest) of
-/// I(x) and the two half-pixel values (I(x) + I(x -+ 1) + 1) / 2 that exist. Resizes lo, hi.
-void samplingIntervals(const ImageU8& image, ImageU8* lo, ImageU8* hi);
-
-/// n rounded up to the kernel's vector width (kAuto resolved to the CPU's kernel).
-int paddedLength(int n, SadKernel kernel);
-
-/// The kernel kAuto stands for on this CPU.
-SadKernel resolveKernel(SadKernel kernel);
-
-}  // namespace internal
 
 }  // namespace twocam::frontend

@@ -71,7 +71,7 @@ static_assert(fieldCount<frontend::HarrisOptions>() == 13,
               "HarrisOptions gained or lost a field: map it in visitHarris (see above)");
 static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
-static_assert(fieldCount<frontend::FrontendOptions>() == 3,
+static_assert(fieldCount<frontend::FrontendOptions>() == 4,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
 static_assert(fieldCount<landmarks::LandmarkOptions>() == 54,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
@@ -93,34 +93,36 @@ static_assert(fieldCount<PipelineConfig>() == 4,
 template <typename O, typename V>
 void visitHarris(O& o, V& v) {
   TWOCAM_CONFIG_KEY(k, "Harris sensitivity in det(M) - k trace(M)^2 [-], in (0, 0.25)");
-  TWOCAM_CONFIG_KEY(border_px, "no corner closer than this to an image edge [px], >= 4");
-  TWOCAM_CONFIG_KEY(target_count, "corners per frame the adaptive threshold steers to [-]");
+  TWOCAM_CONFIG_KEY(border_px, "no corner closer than this to an image edge [px], in [4, 32768]");
+  TWOCAM_CONFIG_KEY(target_count,
+                    "corners per frame the adaptive threshold steers to [-], in [1, 2^24]");
   TWOCAM_CONFIG_KEY(initial_threshold, "threshold on R for the first frame [grey level^4]");
   TWOCAM_CONFIG_KEY(threshold_adapt_rate,
                     "weight of the latest frame in the threshold update [-], in [0, 1]");
   TWOCAM_CONFIG_KEY(threshold_min, "lower clamp of the adaptive threshold [grey level^4]");
   TWOCAM_CONFIG_KEY(threshold_max, "upper clamp of the adaptive threshold [grey level^4]");
-  TWOCAM_CONFIG_KEY(max_corners, "hard cap on corners per frame, strongest kept [-]");
+  TWOCAM_CONFIG_KEY(max_corners, "hard cap on corners per frame, strongest kept [-], in [1, 2^24]");
   TWOCAM_CONFIG_KEY(bucketing, "keep at most max_per_cell corners per grid cell [bool]");
-  TWOCAM_CONFIG_KEY(grid_cols, "bucketing grid columns [-]");
-  TWOCAM_CONFIG_KEY(grid_rows, "bucketing grid rows [-]");
-  TWOCAM_CONFIG_KEY(max_per_cell, "corners kept per bucketing cell [-]");
-  TWOCAM_CONFIG_KEY(use_avx2, "use the AVX2 kernels when the CPU has them (same results) [bool]");
+  TWOCAM_CONFIG_KEY(grid_cols, "bucketing grid columns [-], in [1, 4096]");
+  TWOCAM_CONFIG_KEY(grid_rows, "bucketing grid rows [-], in [1, 4096]");
+  TWOCAM_CONFIG_KEY(max_per_cell, "corners kept per bucketing cell [-], in [1, 2^24]");
+  v.replaced("use_avx2", "frontend.simd");  // HarrisOptions::simd is set from frontend.simd
 }
 
 template <typename O, typename V>
 void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(window_width_px, "width W of the 1xW matching window [px], odd, in [3, 63]");
-  TWOCAM_CONFIG_KEY(min_disparity_px, "smallest disparity searched [px], >= 0");
-  TWOCAM_CONFIG_KEY(max_disparity_px, "largest disparity searched [px], max - min + 1 <= 256");
+  TWOCAM_CONFIG_KEY(min_disparity_px, "smallest disparity searched [px], in [0, 32768]");
+  TWOCAM_CONFIG_KEY(max_disparity_px,
+                    "largest disparity searched [px], <= 32768, max - min + 1 <= 256");
   TWOCAM_CONFIG_KEY(row_tolerance_px, "right rows v-m..v+m are searched too [px], in [0, 8]");
   TWOCAM_CONFIG_KEY(max_hypotheses, "rival hypotheses kept per point [-], in [1, 255]");
   TWOCAM_CONFIG_KEY(cost_ratio, "keep minima costing <= cost_ratio * best cost [-], >= 1");
   TWOCAM_CONFIG_KEY(complete_cost_ratio,
                     "an unlisted minimum within this x best that continues the list's period makes "
                     "it incomplete [-], >= cost_ratio");
-  TWOCAM_CONFIG_KEY(min_separation_px, "distinct minima at least this far apart [px], >= 1");
-  TWOCAM_CONFIG_KEY(lr_tolerance_px, "right-to-left check tolerance [px], >= 0");
+  TWOCAM_CONFIG_KEY(min_separation_px, "distinct minima at least this far apart [px], in [1, 256]");
+  TWOCAM_CONFIG_KEY(lr_tolerance_px, "right-to-left check tolerance [px], in [0, 256]");
   TWOCAM_CONFIG_KEY(lr_check, "run the right-to-left check [bool]");
   TWOCAM_CONFIG_KEY(max_cost_per_px,
                     "drop hypotheses costing more than this * W [grey levels/px], 255 = off");
@@ -130,7 +132,7 @@ void visitSad(O& o, V& v) {
   TWOCAM_CONFIG_KEY(
       birchfield_tomasi,
       "sampling-insensitive cost: distance to the right pixel's half-pixel interval [bool]");
-  TWOCAM_CONFIG_KEY(kernel, "SAD implementation, identical results: auto | scalar | sse2 | avx2");
+  v.replaced("kernel", "frontend.simd");  // SalientSadOptions::simd is set from frontend.simd
   TWOCAM_CONFIG_KEY(row_support, "match each hypothesis on the rows above and below too [bool]");
   TWOCAM_CONFIG_KEY(row_support_radius_px,
                     "row-support search radius around the disparity [px], in [1, 16]");
@@ -144,6 +146,9 @@ void visitFrontend(O& o, V& v) {
     visitSad(o.sad, s);
   });
   TWOCAM_CONFIG_KEY(source, "where hypotheses come from: sad | pairing");
+  TWOCAM_CONFIG_KEY(simd,
+                    "SIMD build of Harris and the SAD kernels, identical results: "
+                    "auto | scalar | sse2 | avx2");
 }
 
 template <typename O, typename V>
@@ -257,34 +262,6 @@ void visitConfig(O& o, V& v) {
 
 #undef TWOCAM_CONFIG_KEY
 
-// ---- enums -------------------------------------------------------------------------------------
-
-struct KernelName {
-  frontend::SadKernel kernel;
-  const char* name;
-};
-constexpr KernelName kKernelNames[] = {{frontend::SadKernel::kAuto, "auto"},
-                                       {frontend::SadKernel::kScalar, "scalar"},
-                                       {frontend::SadKernel::kSse2, "sse2"},
-                                       {frontend::SadKernel::kAvx2, "avx2"}};
-
-const char* kernelName(frontend::SadKernel kernel) {
-  for (const KernelName& k : kKernelNames) {
-    if (k.kernel == kernel) return k.name;
-  }
-  return "unknown";
-}
-
-Status parseKernel(const std::string& name, frontend::SadKernel* kernel) {
-  for (const KernelName& k : kKernelNames) {
-    if (name == k.name) {
-      *kernel = k.kernel;
-      return Status::ok();
-    }
-  }
-  return Status::error("unknown SAD kernel '" + name + "'; expected auto, scalar, sse2 or avx2");
-}
-
 // ---- writing -----------------------------------------------------------------------------------
 
 /// Shortest decimal text that reads back to the same value (std::to_chars round-trip guarantee).
@@ -320,9 +297,11 @@ class Writer {
   void operator()(const char* key, frontend::HypothesisSource value, const char* comment) {
     line(key, frontend::hypothesisSourceName(value), comment);
   }
-  void operator()(const char* key, frontend::SadKernel value, const char* comment) {
-    line(key, kernelName(value), comment);
+  void operator()(const char* key, frontend::Simd value, const char* comment) {
+    line(key, frontend::simdName(value), comment);
   }
+  /// A key that moved: nothing to write.
+  void replaced(const char* /*old_key*/, const char* /*new_key*/) {}
   void operator()(const char* key, landmarks::Policy value, const char* comment) {
     line(key, landmarks::policyName(value), comment);
   }
@@ -508,6 +487,13 @@ class Reader {
     sub.rejectUnknownKeys();
   }
 
+  /// A key that moved to `new_key` (a full path): an error naming the new key when present.
+  void replaced(const char* old_key, const char* new_key) const {
+    if (const Node* n = find(old_key)) {
+      fail(join(path_, old_key) + " was replaced by " + new_key + lineOf(*n));
+    }
+  }
+
   /// Call after visiting: fails on the first key (in key order) that no field claimed.
   void rejectUnknownKeys() const {
     if (node_ == nullptr) return;
@@ -554,8 +540,8 @@ class Reader {
   static void read(const Node& n, const std::string& path, frontend::HypothesisSource* out) {
     readEnum(n, path, out, frontend::parseHypothesisSource);
   }
-  static void read(const Node& n, const std::string& path, frontend::SadKernel* out) {
-    readEnum(n, path, out, parseKernel);
+  static void read(const Node& n, const std::string& path, frontend::Simd* out) {
+    readEnum(n, path, out, frontend::parseSimd);
   }
   static void read(const Node& n, const std::string& path, landmarks::Policy* out) {
     readEnum(n, path, out, landmarks::parsePolicy);
@@ -579,7 +565,7 @@ class Reader {
 }  // namespace
 
 Status PipelineConfig::validate() const {
-  if (Status s = frontend.validate(); !s) return s;   // already "frontend.harris: ..."
+  if (Status s = frontend.validate(); !s) return s;   // already "frontend.harris.<key> = ..."
   if (Status s = landmarks.validate(); !s) return s;  // already "landmarks.<key> = ..."
   if (Status s = mapping.validate(); !s) {
     if (s.message().rfind("mapping.", 0) == 0) return s;

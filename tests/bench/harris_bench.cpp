@@ -24,7 +24,7 @@ void BM_HarrisDetect(benchmark::State& state) {
   cv::setNumThreads(1);
   const ImageU8& image = benchStereoPair().left;
   frontend::HarrisOptions options;
-  options.use_avx2 = state.range(0) != 0;
+  options.simd = state.range(0) != 0 ? frontend::Simd::kAuto : frontend::Simd::kScalar;
   frontend::HarrisDetector detector(options);
   std::vector<Corner> corners;
   // Let the threshold settle on this image first, so the timed frames are steady-state frames.
@@ -65,7 +65,7 @@ void BM_HarrisResponse(benchmark::State& state) {
   cv::setNumThreads(1);
   const ImageU8& image = benchStereoPair().left;
   frontend::HarrisOptions options;
-  options.use_avx2 = state.range(0) != 0;
+  options.simd = state.range(0) != 0 ? frontend::Simd::kAuto : frontend::Simd::kScalar;
   ImageF32 response;
   for (auto _ : state) {
     if (!frontend::harrisResponse(image, options, &response).isOk()) {

@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "bench_data.h"
+#include "frontend/corner_pairing.h"
 #include "frontend/cv_interop.h"
+#include "frontend/row_support.h"
 #include "frontend/salient_sad.h"
 
 namespace twocam::bench {
@@ -114,9 +116,9 @@ BENCHMARK(BM_MeasureRowSupport)->Unit(benchmark::kMicrosecond);
 /// Args: {kernel, lr_check} at 1000 corners: 1 scalar, 2 SSE2, 3 AVX2 (skipped if absent).
 void BM_SalientSadKernel(benchmark::State& state) {
   frontend::SalientSadOptions options;
-  options.kernel = static_cast<frontend::SadKernel>(state.range(0));
+  options.simd = static_cast<frontend::Simd>(state.range(0));
   options.lr_check = state.range(1) != 0;
-  if (!frontend::sadKernelAvailable(options.kernel)) {
+  if (!frontend::simdAvailable(options.simd)) {
     state.SkipWithError("kernel not available on this CPU");
     return;
   }

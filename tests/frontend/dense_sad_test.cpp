@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -460,6 +461,28 @@ TEST(DenseSad, RepeatableAndIndependentOfBufferReuse) {
   EXPECT_EQ(countDifferences(again, first), 0u);
 }
 
+// The one SIMD knob (frontend/simd.h): the baseline and AVX2 copies of the row matcher run the
+// same integer code, so every choice gives the same map bit for bit, post-processing included.
+TEST(DenseSad, EverySimdChoiceGivesTheSameDisparities) {
+  const SyntheticPair pair = makeLayeredPair(23, 203, 61, 3.0);  // odd sizes: vector tails
+  for (const bool subpixel : {false, true}) {
+    DenseSadOptions o;
+    o.max_disparity_px = 37;
+    o.subpixel = subpixel;
+    o.simd = Simd::kScalar;
+    ImageF32 scalar;
+    ASSERT_TRUE(computeDenseDisparity(pair.left, pair.right, o, &scalar).isOk());
+    for (const Simd simd : {Simd::kAuto, Simd::kSse2, Simd::kAvx2}) {
+      if (!simdAvailable(simd)) continue;
+      SCOPED_TRACE(simdName(simd));
+      o.simd = simd;
+      ImageF32 map;
+      ASSERT_TRUE(computeDenseDisparity(pair.left, pair.right, o, &map).isOk());
+      EXPECT_EQ(countDifferences(map, scalar), 0u);
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Post-processing steps, one by one.
 
@@ -679,6 +702,20 @@ TEST(DenseSadOptions, ValidateNamesTheBrokenField) {
   broken("median_width_px", [](DenseSadOptions& o) { o.median_width_px = 0; });
   broken("median_height_px", [](DenseSadOptions& o) { o.median_height_px = 6; });
   broken("uniqueness_percent", [](DenseSadOptions& o) { o.uniqueness_percent = -1; });
+  // Upper bounds (each int field at INT_MAX, the float at infinity).
+  constexpr int kIntMax = std::numeric_limits<int>::max();
+  broken("window_width_px", [](DenseSadOptions& o) { o.window_width_px = kIntMax; });
+  broken("max_disparity_px", [](DenseSadOptions& o) { o.max_disparity_px = kIntMax; });
+  broken("max_disparity_px", [](DenseSadOptions& o) {  // bounds min_disparity_px too
+    o.min_disparity_px = kIntMax - 1;
+    o.max_disparity_px = kIntMax;
+  });
+  broken("lr_tolerance_px",
+         [](DenseSadOptions& o) { o.lr_tolerance_px = std::numeric_limits<float>::infinity(); });
+  broken("propagation_width_px", [](DenseSadOptions& o) { o.propagation_width_px = kIntMax; });
+  broken("median_width_px", [](DenseSadOptions& o) { o.median_width_px = kIntMax; });
+  broken("median_height_px", [](DenseSadOptions& o) { o.median_height_px = kIntMax; });
+  broken("uniqueness_percent", [](DenseSadOptions& o) { o.uniqueness_percent = kIntMax; });
   for (const Case& c : cases) {
     const Status s = c.options.validate();
     EXPECT_FALSE(s.isOk()) << c.field;

@@ -321,25 +321,29 @@ TEST(Harris, FusedDetectorEqualsSelectionOnItsOwnResponse) {
   }
 }
 
-TEST(Harris, Avx2AndPortableKernelsAreBitIdentical) {
+TEST(Harris, EverySimdChoiceGivesTheSameCorners) {
   if (!internal::harrisAvx2Available()) GTEST_SKIP() << "no AVX2 kernels on this build or CPU";
   // Odd sizes exercise the vector loops' scalar tails.
   const ImageU8 image = toImageU8(seededTexture(13, 333, 251, 1.5, 0.0, 255.0));
-  HarrisOptions avx2;
-  HarrisOptions portable;
-  portable.use_avx2 = false;
-  ImageF32 ra;
-  ImageF32 rp;
-  ASSERT_TRUE(harrisResponse(image, avx2, &ra).isOk());
-  ASSERT_TRUE(harrisResponse(image, portable, &rp).isOk());
-  ASSERT_EQ(ra.data.size(), rp.data.size());
-  EXPECT_EQ(0, std::memcmp(ra.data.data(), rp.data.data(), ra.data.size() * sizeof(float)));
-  std::vector<Corner> ca;
-  std::vector<Corner> cp;
-  ASSERT_TRUE(detectHarrisCorners(image, avx2, 1e6f, &ca).isOk());
-  ASSERT_TRUE(detectHarrisCorners(image, portable, 1e6f, &cp).isOk());
-  EXPECT_FALSE(ca.empty());
-  EXPECT_TRUE(sameCorners(ca, cp));
+  HarrisOptions scalar;
+  scalar.simd = Simd::kScalar;
+  ImageF32 rs;
+  ASSERT_TRUE(harrisResponse(image, scalar, &rs).isOk());
+  std::vector<Corner> cs;
+  ASSERT_TRUE(detectHarrisCorners(image, scalar, 1e6f, &cs).isOk());
+  EXPECT_FALSE(cs.empty());
+  for (const Simd simd : {Simd::kAuto, Simd::kSse2, Simd::kAvx2}) {
+    SCOPED_TRACE(simdName(simd));
+    HarrisOptions options;
+    options.simd = simd;
+    ImageF32 r;
+    ASSERT_TRUE(harrisResponse(image, options, &r).isOk());
+    ASSERT_EQ(r.data.size(), rs.data.size());
+    EXPECT_EQ(0, std::memcmp(r.data.data(), rs.data.data(), r.data.size() * sizeof(float)));
+    std::vector<Corner> c;
+    ASSERT_TRUE(detectHarrisCorners(image, options, 1e6f, &c).isOk());
+    EXPECT_TRUE(sameCorners(c, cs));
+  }
 }
 
 TEST(Harris, PlateauKeepsOnlyItsFirstPixelInRasterOrder) {
@@ -368,9 +372,9 @@ TEST(Harris, ExactlyTiedMaximaGiveOneCornerAtTheFirstPixel) {
       for (int du = 0; du < 2; ++du) image(p.x + du, p.y + dv) = 200;
     }
   }
-  for (const bool use_avx2 : {true, false}) {
+  for (const Simd simd : {Simd::kAuto, Simd::kScalar}) {
     HarrisOptions options;
-    options.use_avx2 = use_avx2;
+    options.simd = simd;
     ImageF32 response;
     ASSERT_TRUE(harrisResponse(image, options, &response).isOk());
     std::vector<Corner> corners;
@@ -384,7 +388,7 @@ TEST(Harris, ExactlyTiedMaximaGiveOneCornerAtTheFirstPixel) {
       const bool found = std::any_of(corners.begin(), corners.end(), [&](const Corner& c) {
         return c.u_px == p.x && c.v_px == p.y && c.response == r;
       });
-      EXPECT_TRUE(found) << "square at (" << p.x << ", " << p.y << ") avx2 " << use_avx2;
+      EXPECT_TRUE(found) << "square at (" << p.x << ", " << p.y << ") simd " << simdName(simd);
     }
   }
 }
@@ -756,6 +760,42 @@ TEST(Harris, OptionsValidateNamesTheBrokenField) {
   broken([](HarrisOptions& o) { o.grid_rows = 0; }, "grid_rows");
   broken([](HarrisOptions& o) { o.grid_cols = 100000; }, "grid_cols");
   broken([](HarrisOptions& o) { o.max_per_cell = 0; }, "max_per_cell");
+}
+
+// Upper bounds the code can honour: 2 * border_px + 1 overflowed int at border_px = INT_MAX
+// (UBSan: signed overflow in minHarrisImageSide), and the corner budgets had no limit.
+TEST(Harris, OptionsRejectValuesBeyondWhatTheCodeHonours) {
+  constexpr int kIntMax = std::numeric_limits<int>::max();
+  constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  auto rejected = [](auto mutate, const std::string& field) {
+    HarrisOptions o;
+    mutate(o);
+    const Status s = o.validate();
+    EXPECT_FALSE(s.isOk()) << field;
+    EXPECT_EQ(s.message().rfind(field, 0), 0u) << s.message();
+  };
+  rejected([](HarrisOptions& o) { o.border_px = kIntMax; }, "border_px = 2147483647");
+  rejected([](HarrisOptions& o) { o.border_px = (1 << 15) + 1; }, "border_px");
+  rejected([](HarrisOptions& o) { o.target_count = kIntMax; }, "target_count");
+  rejected([](HarrisOptions& o) { o.max_corners = kIntMax; }, "max_corners");
+  rejected([](HarrisOptions& o) { o.max_per_cell = kIntMax; }, "max_per_cell");
+  rejected([](HarrisOptions& o) { o.grid_rows = kIntMax; }, "grid_rows");
+  rejected([](HarrisOptions& o) { o.k = kInf; }, "k =");
+  rejected([](HarrisOptions& o) { o.initial_threshold = kNan; }, "initial_threshold");
+  rejected([](HarrisOptions& o) { o.threshold_adapt_rate = kNan; }, "threshold_adapt_rate");
+  rejected([](HarrisOptions& o) { o.threshold_min = kNan; }, "threshold_min");
+  rejected([](HarrisOptions& o) { o.threshold_max = kInf; }, "threshold_max");
+  // The largest accepted values still detect (the image must then be 2 * border + 1 wide).
+  HarrisOptions widest;
+  widest.border_px = 1 << 15;
+  widest.target_count = 1 << 24;
+  widest.max_corners = 1 << 24;
+  widest.max_per_cell = 1 << 24;
+  ASSERT_TRUE(widest.validate().isOk()) << widest.validate().message();
+  EXPECT_EQ(minHarrisImageSide(widest), (1 << 16) + 1);
+  std::vector<Corner> corners;
+  EXPECT_FALSE(detectHarrisCorners(ImageU8(64, 64, 100), widest, 1e6f, &corners).isOk());
 }
 
 TEST(Harris, BadInputGivesStatusErrors) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -12,97 +13,14 @@
 #include <string>
 #include <vector>
 
+#include "frontend/corner_pairing.h"
 #include "frontend/cv_interop.h"
 #include "frontend/frontend.h"
+#include "frontend/salient_test_support.h"
 #include "support/test_paths.h"
 
 namespace twocam::frontend {
 namespace {
-
-// Tolerances, each with its reason.
-/// Noise-free integer shift: the parabola through a V-shaped SAD valley with a 0 at the truth
-/// moves the estimate by the asymmetry of the two neighbours only.
-constexpr double kIntegerShiftTolPx = 0.35;
-/// Sub-pixel shift of a band-limited texture, parabola fit on SAD (pixel-locking bias of the
-/// parabola on a V-shaped SAD curve, measured up to 0.21 px; 8-bit quantisation adds a little).
-constexpr double kSubpixelMeanAbsTolPx = 0.15;
-constexpr double kSubpixelMaxAbsTolPx = 0.3;
-/// Share of points whose best hypothesis is the truth on that texture: at half-pixel shifts
-/// random look-alikes win some points (measured 93-100 %).
-constexpr double kMinSubpixelBestCorrectPct = 85.0;
-/// A hypothesis is "true" within 1 px of the ground truth (METRICS.md recall_at_k, bad1).
-constexpr double kTruthTolPx = 1.0;
-/// Targets from the issue for Middlebury Tsukuba and Venus, over non-occluded points.
-constexpr double kMinRecallAt4Pct = 95.0;
-constexpr double kMaxConfidentBad1Pct = 5.0;
-/// Birchfield-Tomasi on sharp bars at half-pixel shifts: its best cost is what the one-sided
-/// interval cannot absorb (rounding, bars narrower than the interval); measured 0.19 of SAD's
-/// (8.6 against 46.1 grey levels per window).
-constexpr double kMaxHalfPixelCostRatio = 0.5;
-
-struct StereoPair {
-  ImageU8 left;
-  ImageU8 right;
-};
-
-/// Seeded texture with features a few px wide (blurred uniform noise stretched to [lo, hi]).
-cv::Mat randomTexture(int width, int height, uint64_t seed, double lo = 0.0, double hi = 255.0) {
-  cv::RNG rng(seed);
-  cv::Mat noise(height, width, CV_32F);
-  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
-  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5);
-  cv::normalize(noise, noise, lo, hi, cv::NORM_MINMAX);
-  cv::Mat out;
-  noise.convertTo(out, CV_8U);
-  return out;
-}
-
-/// Crops of T such that right(u - d, v + dv) = left(u, v): the right view of a fronto-parallel
-/// plane at disparity d, dv rows low (T is wider and taller than the images).
-StereoPair shiftedPair(const cv::Mat& tex, int width, int height, int d, int dv = 0) {
-  cv::Mat left = tex(cv::Rect(0, 8, width, height)).clone();
-  cv::Mat right = tex(cv::Rect(d, 8 - dv, width, height)).clone();
-  return {toImageU8(left), toImageU8(right)};
-}
-
-std::vector<Corner> gridCorners(int u0, int u1, int v0, int v1, int step) {
-  std::vector<Corner> corners;
-  for (int v = v0; v < v1; v += step) {
-    for (int u = u0; u < u1; u += step) corners.push_back({u, v, 1.0f});
-  }
-  return corners;
-}
-
-const DisparityHypothesis* best(const StereoHypotheses& hyps, const SalientPoint& p) {
-  return p.num_hypotheses == 0 ? nullptr : &hyps.hypotheses[p.first_hypothesis];
-}
-
-bool anyWithin(const StereoHypotheses& hyps, const SalientPoint& p, double d, double tol) {
-  for (uint32_t k = 0; k < p.num_hypotheses; ++k) {
-    if (std::abs(hyps.hypotheses[p.first_hypothesis + k].d_px - d) <= tol) return true;
-  }
-  return false;
-}
-
-/// Invariants of any StereoHypotheses the matchers produce.
-void expectWellFormed(const StereoHypotheses& hyps, int max_k) {
-  uint32_t next = 0;
-  for (size_t i = 0; i < hyps.points.size(); ++i) {
-    const SalientPoint& p = hyps.points[i];
-    ASSERT_EQ(p.first_hypothesis, next);
-    ASSERT_LE(p.num_hypotheses, static_cast<uint32_t>(max_k));
-    for (uint32_t k = 0; k < p.num_hypotheses; ++k) {
-      const DisparityHypothesis& h = hyps.hypotheses[p.first_hypothesis + k];
-      EXPECT_EQ(h.point_index, i);
-      EXPECT_EQ(h.rank, k);
-      if (k > 0) {
-        EXPECT_GE(h.cost, hyps.hypotheses[p.first_hypothesis + k - 1].cost);
-      }
-    }
-    next += p.num_hypotheses;
-  }
-  EXPECT_EQ(next, hyps.hypotheses.size());
-}
 
 // ---------------------------------------------------------------------------------------------
 
@@ -141,11 +59,47 @@ TEST(SalientSadOptions, NamesTheBrokenConstraint) {
   add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = -1; });
   add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = 0.0f; });
   add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = INFINITY; });
+  // Upper bounds the code can honour (UBSan: lr_tolerance_px = INT_MAX overflowed d +- tolerance
+  // in the right-to-left check; max_disparity_px = INT_MAX overflowed max - min + 1 here and
+  // max + W in the input check).
+  constexpr int kIntMax = std::numeric_limits<int>::max();
+  add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = kIntMax; });
+  add("lr_tolerance_px", [](SalientSadOptions& o) { o.lr_tolerance_px = 257; });
+  add("min_separation_px", [](SalientSadOptions& o) { o.min_separation_px = kIntMax; });
+  add("max_disparity_px", [](SalientSadOptions& o) { o.max_disparity_px = kIntMax; });
+  add("min_disparity_px", [](SalientSadOptions& o) {
+    o.min_disparity_px = kIntMax - 1;
+    o.max_disparity_px = kIntMax;
+  });
+  add("window_width_px", [](SalientSadOptions& o) { o.window_width_px = kIntMax; });
+  add("row_tolerance_px", [](SalientSadOptions& o) { o.row_tolerance_px = kIntMax; });
+  add("max_hypotheses", [](SalientSadOptions& o) { o.max_hypotheses = kIntMax; });
+  add("row_support_radius_px", [](SalientSadOptions& o) { o.row_support_radius_px = kIntMax; });
+  add("complete_cost_ratio", [](SalientSadOptions& o) { o.complete_cost_ratio = NAN; });
+  add("complete_cost_ratio", [](SalientSadOptions& o) { o.complete_cost_ratio = INFINITY; });
+  add("max_cost_per_px", [](SalientSadOptions& o) { o.max_cost_per_px = NAN; });
   for (const Case& c : cases) {
     const Status s = c.options.validate();
     ASSERT_FALSE(s.isOk()) << c.field;
     EXPECT_NE(s.message().find(c.field), std::string::npos) << s.message();
   }
+}
+
+// The largest accepted tolerance and separation run through the matcher (and its right-to-left
+// check) like any other value: the tolerance wider than the range accepts every hypothesis.
+TEST(SalientSadOptions, LargestAcceptedBoundsMatch) {
+  const cv::Mat tex = randomTexture(400, 120, 5);
+  const StereoPair pair = shiftedPair(tex, 320, 96, 12);
+  SalientSadOptions options;
+  options.lr_tolerance_px = 256;
+  options.min_separation_px = 256;
+  ASSERT_TRUE(options.validate().isOk()) << options.validate().message();
+  StereoHypotheses out;
+  ASSERT_TRUE(
+      matchSalient(pair.left, pair.right, gridCorners(80, 300, 20, 80, 20), options, &out).isOk());
+  ASSERT_FALSE(out.hypotheses.empty());
+  for (const DisparityHypothesis& h : out.hypotheses) EXPECT_TRUE(h.lr_consistent);
+  for (const SalientPoint& p : out.points) EXPECT_LE(p.num_hypotheses, 1u);  // one per range
 }
 
 TEST(SalientSad, RejectsBadInput) {
@@ -411,31 +365,6 @@ TEST(SalientSad, BirchfieldTomasiKeepsHalfPixelMatchesCheap) {
     }
   }
 }
-
-TEST(SamplingIntervals, SpanEachPixelAndItsHalfPixelNeighbours) {
-  ImageU8 image;
-  image.width = 5;
-  image.height = 2;
-  image.data = {10,
-                20,
-                200,
-                200,
-                0,  //
-                7,
-                7,
-                7,
-                7,
-                7};
-  ImageU8 lo;
-  ImageU8 hi;
-  internal::samplingIntervals(image, &lo, &hi);
-  ASSERT_EQ(lo.width, 5);
-  ASSERT_EQ(hi.height, 2);
-  // Half-pixel values of row 0: 15, 110, 200, 100 (rounded half up).
-  EXPECT_EQ(lo.data, (std::vector<uint8_t>{10, 15, 110, 100, 0, 7, 7, 7, 7, 7}));
-  EXPECT_EQ(hi.data, (std::vector<uint8_t>{15, 110, 200, 200, 100, 7, 7, 7, 7, 7}));
-}
-
 TEST(SalientSad, PeriodicTextureGivesAliasesIncludingTruth) {
   // Columns repeat with a 12 px period (plus independent noise in each view): the true
   // disparity 14 and its aliases 2 and 26 cost about the same inside the 0..31 search.
@@ -695,141 +624,6 @@ TEST(SalientSad, CostGateDropsWeakHypotheses) {
   }
   EXPECT_LT(gated.hypotheses.size(), open.hypotheses.size() / 2);
 }
-
-/// Row support of a hypothesis whose rows all see the same fronto-parallel plane: the parabola
-/// offsets of the three rows differ by at most twice kIntegerShiftTolPx.
-constexpr double kPlaneRowSpanTolPx = 2 * kIntegerShiftTolPx;
-
-TEST(RowSupport, PlaneHasNarrowSpansAndAHorizontalDepthEdgeWideOnes) {
-  // Rows 0..59 of the scene at disparity 12, rows 60.. at 15 (a horizontal depth edge whose
-  // step equals the search radius, so the other surface's match is inside it).
-  constexpr int kFar = 12;
-  constexpr int kNear = 15;
-  constexpr int kEdgeRow = 60;
-  const cv::Mat tex = randomTexture(400, 140, 41);
-  const StereoPair far = shiftedPair(tex, 320, 120, kFar);
-  const StereoPair near = shiftedPair(tex, 320, 120, kNear);
-  ImageU8 right = far.right;
-  for (int v = kEdgeRow; v < right.height; ++v) {
-    std::copy(
-        near.right.row(v), near.right.row(v) + right.width, right.data.begin() + v * right.width);
-  }
-  const std::vector<Corner> corners = gridCorners(80, 300, 0, 120, 3);
-  SalientSadOptions options;
-  StereoHypotheses out;
-  ASSERT_TRUE(matchSalient(far.left, right, corners, options, &out).isOk());
-  for (const DisparityHypothesis& h : out.hypotheses)
-    EXPECT_EQ(h.row_span_px, 0.0f);  // not measured
-  ASSERT_TRUE(measureRowSupport(far.left, right, options, &out).isOk());
-  int checked_plane = 0;
-  int checked_edge = 0;
-  for (const SalientPoint& p : out.points) {
-    const DisparityHypothesis* h = best(out, p);
-    ASSERT_NE(h, nullptr);
-    const int v = p.corner.v_px;
-    const bool at_edge = v == kEdgeRow - 1 || v == kEdgeRow;
-    const double truth = v < kEdgeRow ? kFar : kNear;
-    if (std::abs(h->d_px - truth) > kIntegerShiftTolPx) continue;  // only the true best matches
-    if (at_edge) {
-      // One neighbouring row lies on the other surface, 3 px away.
-      EXPECT_NEAR(h->row_span_px, kNear - kFar, kPlaneRowSpanTolPx) << "v = " << v;
-      ++checked_edge;
-    } else if (std::abs(v - kEdgeRow) > 2) {
-      EXPECT_LE(h->row_span_px, kPlaneRowSpanTolPx) << "v = " << v;
-      ++checked_plane;
-    }
-  }
-  EXPECT_GT(checked_plane, 500);
-  EXPECT_GT(checked_edge, 50);
-}
-
-TEST(RowSupport, AWrongDisparityHasNoSupportAndBordersUseTheRowsThatExist) {
-  constexpr int kD = 17;
-  const cv::Mat tex = randomTexture(400, 140, 43);
-  const StereoPair pair = shiftedPair(tex, 320, 120, kD);
-  StereoHypotheses hyps;
-  // Point 0 in the image, point 1 on row 0 (no row above), point 2 on the last row.
-  for (const int v : {50, 0, 119}) {
-    SalientPoint p;
-    p.corner = {150, v, 1.0f};
-    p.first_hypothesis = static_cast<uint32_t>(hyps.hypotheses.size());
-    p.num_hypotheses = 2;
-    DisparityHypothesis right_d;
-    right_d.d_px = kD;
-    right_d.point_index = static_cast<uint32_t>(hyps.points.size());
-    DisparityHypothesis wrong_d = right_d;
-    wrong_d.d_px = kD + 3;  // the neighbouring rows match at the truth, 3 px away
-    wrong_d.rank = 1;
-    hyps.hypotheses.push_back(right_d);
-    hyps.hypotheses.push_back(wrong_d);
-    hyps.points.push_back(p);
-  }
-  SalientSadOptions options;
-  ASSERT_TRUE(measureRowSupport(pair.left, pair.right, options, &hyps).isOk());
-  for (size_t i = 0; i < hyps.points.size(); ++i) {
-    const DisparityHypothesis& right_d = hyps.hypotheses[hyps.points[i].first_hypothesis];
-    const DisparityHypothesis& wrong_d = hyps.hypotheses[hyps.points[i].first_hypothesis + 1];
-    EXPECT_LE(right_d.row_span_px, kPlaneRowSpanTolPx) << "point " << i;
-    EXPECT_NEAR(wrong_d.row_span_px, 3.0, kPlaneRowSpanTolPx) << "point " << i;
-  }
-  // A radius of 1 px cannot reach the truth from the wrong disparity: a smaller span.
-  StereoHypotheses narrow = hyps;
-  options.row_support_radius_px = 1;
-  ASSERT_TRUE(measureRowSupport(pair.left, pair.right, options, &narrow).isOk());
-  EXPECT_LT(narrow.hypotheses[1].row_span_px, hyps.hypotheses[1].row_span_px - 0.5f);
-
-  // Bad input: an error, hypotheses untouched.
-  StereoHypotheses broken = hyps;
-  broken.points[2].num_hypotheses = 3;  // one past the end of the hypotheses
-  broken.hypotheses[0].row_span_px = -1.0f;
-  EXPECT_FALSE(measureRowSupport(pair.left, pair.right, options, &broken).isOk());
-  EXPECT_EQ(broken.hypotheses[0].row_span_px, -1.0f);
-  ImageU8 small = pair.right;
-  small.height -= 1;
-  small.data.resize(static_cast<size_t>(small.width) * small.height);
-  EXPECT_FALSE(measureRowSupport(pair.left, small, options, &hyps).isOk());
-  options.row_support_radius_px = 0;
-  EXPECT_FALSE(measureRowSupport(pair.left, pair.right, options, &hyps).isOk());
-  EXPECT_NE(options.validate().message().find("row_support_radius_px"), std::string::npos);
-}
-
-TEST(RowSupport, EveryKernelGivesTheSameSpans) {
-  // The AVX2 / SSE4.1 fast path (plain SAD) and the generic one must agree bit for bit, at
-  // the image borders and for rivals too: hypotheses of a real matcher run on a slanted scene.
-  const cv::Mat tex = randomTexture(420, 160, 47);
-  cv::Mat right_m(120, 320, CV_8U);
-  for (int v = 0; v < 120; ++v) {
-    const int d = 5 + v / 6;  // disparity grows down the image, 5..24 px
-    tex(cv::Rect(d, 8 + v, 320, 1)).copyTo(right_m.row(v));
-  }
-  const ImageU8 left = toImageU8(tex(cv::Rect(0, 8, 320, 120)).clone());
-  const ImageU8 right = toImageU8(right_m);
-  const std::vector<Corner> corners = gridCorners(5, 315, 0, 120, 3);
-  for (const int radius : {1, 3, 5}) {
-    for (const int window : {5, 11, 15, 21}) {
-      SalientSadOptions options;
-      options.max_disparity_px = 31;
-      options.window_width_px = window;
-      options.row_support_radius_px = radius;
-      StereoHypotheses reference;
-      ASSERT_TRUE(matchSalient(left, right, corners, options, &reference).isOk());
-      StereoHypotheses fast = reference;
-      options.kernel = SadKernel::kScalar;
-      ASSERT_TRUE(measureRowSupport(left, right, options, &reference).isOk());
-      options.kernel = SadKernel::kAuto;
-      ASSERT_TRUE(measureRowSupport(left, right, options, &fast).isOk());
-      ASSERT_EQ(fast.hypotheses.size(), reference.hypotheses.size());
-      int nonzero = 0;
-      for (size_t j = 0; j < fast.hypotheses.size(); ++j) {
-        ASSERT_EQ(fast.hypotheses[j].row_span_px, reference.hypotheses[j].row_span_px)
-            << "hypothesis " << j << ", W = " << window << ", radius " << radius;
-        if (reference.hypotheses[j].row_span_px > 0.0f) ++nonzero;
-      }
-      EXPECT_GT(nonzero, static_cast<int>(fast.hypotheses.size()) / 2);
-    }
-  }
-}
-
 TEST(ConfidentBest, AcceptsOnlyAnUncontestedConsistentBest) {
   StereoHypotheses hyps;
   auto point = [&hyps](std::vector<std::pair<float, bool>> list) {
@@ -864,356 +658,6 @@ TEST(ConfidentBestDeathTest, PointOfAnotherFrameAborts) {
   p.num_hypotheses = 2;
   EXPECT_DEATH((void)confidentBest(hyps, p), "outside");
 }
-
-// ---------------------------------------------------------------------------------------------
-// Kernels: every SIMD path must equal the scalar one bit for bit.
-
-std::vector<SadKernel> availableKernels() {
-  std::vector<SadKernel> kernels;
-  for (SadKernel k : {SadKernel::kScalar, SadKernel::kSse2, SadKernel::kAvx2}) {
-    if (sadKernelAvailable(k)) kernels.push_back(k);
-  }
-  return kernels;
-}
-
-TEST(SadKernels, CostCurvesBitIdenticalToScalar) {
-  std::printf("[ kernels ] available:");
-  for (SadKernel k : availableKernels()) std::printf(" %d", static_cast<int>(k));
-  std::printf(" (1 scalar, 2 SSE2, 3 AVX2); auto = %d\n",
-              static_cast<int>(internal::resolveKernel(SadKernel::kAuto)));
-  std::mt19937 rng(91);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::uniform_int_distribution<int> half_width(0, 31);
-  std::uniform_int_distribution<int> length(1, 256);
-  std::uniform_int_distribution<int> extreme(0, 3);
-  constexpr int kTrials = 1000;
-  std::vector<uint8_t> win(64);
-  std::vector<uint8_t> strip(256 + 64);
-  std::vector<int16_t> offsets(256);
-  std::vector<uint16_t> reference(256);
-  std::vector<uint16_t> cost(256);
-  for (int trial = 0; trial < kTrials; ++trial) {
-    const int w = 2 * half_width(rng) + 1;
-    const int n = length(rng);
-    // Some trials use only 0 and 255 to reach the largest sums.
-    const bool saturate = extreme(rng) == 0;
-    for (uint8_t& b : win) b = static_cast<uint8_t>(saturate ? (byte(rng) & 1) * 255 : byte(rng));
-    for (uint8_t& b : strip) {
-      b = static_cast<uint8_t>(saturate ? (byte(rng) & 1) * 255 : byte(rng));
-    }
-    const bool zero_mean = trial % 2 == 1;
-    for (int16_t& o : offsets) o = static_cast<int16_t>(byte(rng) * 2 - 255);
-    const int16_t* off = zero_mean ? offsets.data() : nullptr;
-    internal::sadCurve(SadKernel::kScalar, win.data(), w, strip.data(), off, n, reference.data());
-    for (SadKernel k : availableKernels()) {
-      std::fill(cost.begin(), cost.end(), uint16_t{0xFFFF});
-      internal::sadCurve(k, win.data(), w, strip.data(), off, n, cost.data());
-      for (int j = 0; j < n; ++j) {
-        ASSERT_EQ(cost[j], reference[j]) << "kernel " << static_cast<int>(k) << " trial " << trial
-                                         << " w " << w << " n " << n << " j " << j;
-      }
-    }
-    // Spot-check the scalar reference itself against the definition.
-    const int j = n - 1;
-    int expected = 0;
-    for (int i = 0; i < w; ++i) {
-      expected += std::abs(win[i] - strip[i + j] + (zero_mean ? offsets[j] : 0));
-    }
-    ASSERT_EQ(reference[j], expected);
-  }
-}
-
-TEST(SadKernels, PrefixCurvesEqualDirectWindows) {
-  // The fused shiftable-window pass: prefixes over 2W-1 offsets, differences of prefixes must
-  // equal the three W-wide windows computed directly, on every kernel.
-  std::mt19937 rng(95);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::uniform_int_distribution<int> half_width(1, 31);
-  std::uniform_int_distribution<int> length(1, 256);
-  constexpr int kTrials = 300;
-  std::vector<uint8_t> win(128);
-  std::vector<uint8_t> strip(256 + 128);
-  std::vector<std::vector<uint16_t>> prefix(5, std::vector<uint16_t>(256));
-  std::vector<uint16_t> direct(256);
-  for (int trial = 0; trial < kTrials; ++trial) {
-    const int h = half_width(rng);
-    const int w = 2 * h + 1;
-    const int n = length(rng);
-    for (uint8_t& b : win) b = static_cast<uint8_t>(byte(rng));
-    for (uint8_t& b : strip) b = static_cast<uint8_t>(byte(rng));
-    const int ends[5] = {h, 2 * h, 2 * h + 1, 3 * h + 1, 4 * h + 1};
-    for (SadKernel k : availableKernels()) {
-      uint16_t* const outs[5] = {
-          prefix[0].data(), prefix[1].data(), prefix[2].data(), prefix[3].data(), prefix[4].data()};
-      internal::sadPrefixCurves(k, win.data(), strip.data(), n, ends, 5, outs);
-      for (int a = 0; a < 3; ++a) {  // window starting at offset 0, h, 2h
-        internal::sadCurve(SadKernel::kScalar,
-                           win.data() + a * h,
-                           w,
-                           strip.data() + a * h,
-                           nullptr,
-                           n,
-                           direct.data());
-        for (int j = 0; j < n; ++j) {
-          const int from_prefix =
-              a == 0 ? prefix[2][j]
-                     : (a == 1 ? prefix[3][j] - prefix[0][j] : prefix[4][j] - prefix[1][j]);
-          ASSERT_EQ(from_prefix, direct[j]) << "kernel " << static_cast<int>(k) << " trial "
-                                            << trial << " alignment " << a << " j " << j;
-        }
-      }
-    }
-  }
-}
-
-TEST(SadKernels, IntervalCurvesBitIdenticalToScalarAndTheirDefinition) {
-  // Birchfield-Tomasi prefix curves: the distance of each window pixel to the strip's interval
-  // [lo, hi], on every kernel, including intervals reaching 0 and 255; with lo == hi they are
-  // plain SAD. The same for the zero-mean curves (window pixel + offset).
-  std::mt19937 rng(97);
-  std::uniform_int_distribution<int> byte(0, 255);
-  std::uniform_int_distribution<int> half_width(1, 31);
-  std::uniform_int_distribution<int> length(1, 256);
-  constexpr int kTrials = 300;
-  std::vector<uint8_t> win(128);
-  std::vector<uint8_t> lo(256 + 128);
-  std::vector<uint8_t> hi(256 + 128);
-  std::vector<std::vector<uint16_t>> reference(3, std::vector<uint16_t>(256));
-  std::vector<std::vector<uint16_t>> out(3, std::vector<uint16_t>(256));
-  std::vector<uint16_t> sad(256);
-  std::vector<int16_t> offsets(256);
-  for (int trial = 0; trial < kTrials; ++trial) {
-    const int h = half_width(rng);
-    const int n = length(rng);
-    for (uint8_t& b : win) b = static_cast<uint8_t>(byte(rng));
-    for (size_t i = 0; i < lo.size(); ++i) {
-      const int a = byte(rng);
-      const int b = byte(rng);
-      lo[i] = static_cast<uint8_t>(std::min(a, b));
-      hi[i] = static_cast<uint8_t>(std::max(a, b));
-    }
-    const int ends[3] = {h, 2 * h + 1, 4 * h + 1};
-    uint16_t* const ref_outs[3] = {reference[0].data(), reference[1].data(), reference[2].data()};
-    internal::intervalPrefixCurves(
-        SadKernel::kScalar, win.data(), lo.data(), hi.data(), n, ends, 3, ref_outs);
-    for (int e = 0; e < 3; ++e) {
-      const int j = trial % n;
-      int expected = 0;
-      for (int i = 0; i < ends[e]; ++i) {
-        expected += std::max({0, lo[i + j] - win[i], win[i] - hi[i + j]});
-      }
-      ASSERT_EQ(reference[e][j], expected) << "trial " << trial << " end " << ends[e];
-    }
-    for (SadKernel k : availableKernels()) {
-      uint16_t* const outs[3] = {out[0].data(), out[1].data(), out[2].data()};
-      internal::intervalPrefixCurves(k, win.data(), lo.data(), hi.data(), n, ends, 3, outs);
-      for (int e = 0; e < 3; ++e) {
-        for (int j = 0; j < n; ++j) {
-          ASSERT_EQ(out[e][j], reference[e][j]) << "kernel " << static_cast<int>(k) << " trial "
-                                                << trial << " end " << e << " j " << j;
-        }
-      }
-      // A zero-width interval is plain SAD.
-      internal::intervalPrefixCurves(k, win.data(), lo.data(), lo.data(), n, ends, 3, outs);
-      internal::sadCurve(k, win.data(), ends[2], lo.data(), nullptr, n, sad.data());
-      for (int j = 0; j < n; ++j) ASSERT_EQ(out[2][j], sad[j]) << "kernel " << static_cast<int>(k);
-    }
-    // Zero-mean: the distance of win[i] + offsets[j] to the interval, on every kernel.
-    const int w = 2 * h + 1;
-    for (int16_t& o : offsets) o = static_cast<int16_t>(byte(rng) * 2 - 255);
-    internal::intervalCurve(SadKernel::kScalar,
-                            win.data(),
-                            w,
-                            lo.data(),
-                            hi.data(),
-                            offsets.data(),
-                            n,
-                            reference[0].data());
-    const int j = (trial * 7) % n;
-    int expected = 0;
-    for (int i = 0; i < w; ++i) {
-      const int x = win[i] + offsets[j];
-      expected += std::max({0, lo[i + j] - x, x - hi[i + j]});
-    }
-    ASSERT_EQ(reference[0][j], expected) << "zero-mean, trial " << trial;
-    for (SadKernel k : availableKernels()) {
-      std::fill(out[0].begin(), out[0].end(), uint16_t{0xFFFF});
-      internal::intervalCurve(
-          k, win.data(), w, lo.data(), hi.data(), offsets.data(), n, out[0].data());
-      for (int jj = 0; jj < n; ++jj) {
-        ASSERT_EQ(out[0][jj], reference[0][jj])
-            << "zero-mean, kernel " << static_cast<int>(k) << " trial " << trial << " j " << jj;
-      }
-      // A zero-width interval is zero-mean SAD.
-      internal::intervalCurve(
-          k, win.data(), w, lo.data(), lo.data(), offsets.data(), n, out[1].data());
-      internal::sadCurve(k, win.data(), w, lo.data(), offsets.data(), n, sad.data());
-      for (int jj = 0; jj < n; ++jj)
-        ASSERT_EQ(out[1][jj], sad[jj]) << "kernel " << static_cast<int>(k);
-    }
-  }
-}
-
-bool sameHypotheses(const StereoHypotheses& a, const StereoHypotheses& b) {
-  if (a.points.size() != b.points.size() || a.hypotheses.size() != b.hypotheses.size()) {
-    return false;
-  }
-  for (size_t i = 0; i < a.points.size(); ++i) {
-    if (a.points[i].first_hypothesis != b.points[i].first_hypothesis ||
-        a.points[i].num_hypotheses != b.points[i].num_hypotheses) {
-      return false;
-    }
-  }
-  for (size_t i = 0; i < a.hypotheses.size(); ++i) {
-    const DisparityHypothesis& x = a.hypotheses[i];
-    const DisparityHypothesis& y = b.hypotheses[i];
-    if (x.d_px != y.d_px || x.cost != y.cost || x.point_index != y.point_index ||
-        x.row_offset_px != y.row_offset_px || x.rank != y.rank ||
-        x.lr_consistent != y.lr_consistent) {
-      return false;
-    }
-  }
-  return true;
-}
-
-TEST(SadKernels, MatcherOutputIdenticalAcrossKernels) {
-  const cv::Mat tex = randomTexture(400, 140, 101);
-  StereoPair pair = shiftedPair(tex, 320, 120, 13);
-  std::mt19937 rng(102);
-  std::normal_distribution<double> noise(0.0, 3.0);
-  for (uint8_t& px : pair.right.data) px = cv::saturate_cast<uint8_t>(px + noise(rng));
-  // Corners everywhere, including the last rows (padded reads near the buffer's end).
-  const std::vector<Corner> corners = gridCorners(0, 320, 0, 120, 3);
-  for (int cost : {0, 1, 2, 3}) {  // plain SAD, zero-mean, Birchfield-Tomasi, both
-    const bool zero_mean = cost % 2 == 1;
-    for (int m : {0, 2}) {
-      SalientSadOptions options;
-      options.zero_mean = zero_mean;
-      options.birchfield_tomasi = cost >= 2;
-      options.row_tolerance_px = m;
-      options.max_disparity_px = 40;  // 41 disparities: a partial last vector
-      options.kernel = SadKernel::kScalar;
-      StereoHypotheses reference;
-      ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &reference).isOk());
-      ASSERT_FALSE(reference.hypotheses.empty());
-      for (SadKernel k : availableKernels()) {
-        options.kernel = k;
-        StereoHypotheses out;
-        ASSERT_TRUE(matchSalient(pair.left, pair.right, corners, options, &out).isOk());
-        EXPECT_TRUE(sameHypotheses(reference, out))
-            << "kernel " << static_cast<int>(k) << " cost " << cost << " m " << m;
-      }
-    }
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Paper A: corner pairing.
-
-TEST(PairCorners, ReturnsTheTrueRightCorner) {
-  constexpr int kD = 11;
-  const cv::Mat tex = randomTexture(400, 140, 111);
-  const StereoPair pair = shiftedPair(tex, 320, 120, kD);
-  const std::vector<Corner> left_corners = gridCorners(80, 310, 5, 115, 10);
-  std::vector<Corner> right_corners;
-  std::mt19937 rng(112);
-  std::uniform_int_distribution<int> offset(1, 60);
-  for (const Corner& c : left_corners) {
-    right_corners.push_back({c.u_px - kD, c.v_px, 1.0f});
-    // A distractor in the same row inside the search range, never on a true right corner
-    // (those sit at u - kD for the grid's u = 80 + 10 i).
-    int ur = c.u_px - offset(rng);
-    while ((ur + kD - 80) % 10 == 0) ur = c.u_px - offset(rng);
-    right_corners.push_back({ur, c.v_px, 1.0f});
-  }
-  std::shuffle(right_corners.begin(), right_corners.end(), rng);
-  SalientSadOptions options;
-  StereoHypotheses out;
-  ASSERT_TRUE(
-      pairCorners(pair.left, pair.right, left_corners, right_corners, options, &out).isOk());
-  ASSERT_EQ(out.points.size(), left_corners.size());
-  expectWellFormed(out, options.max_hypotheses);
-  size_t with_rivals = 0;
-  for (const SalientPoint& p : out.points) {
-    const DisparityHypothesis* h = best(out, p);
-    ASSERT_NE(h, nullptr);
-    EXPECT_EQ(h->d_px, static_cast<float>(kD));
-    EXPECT_EQ(h->cost, 0.0f);
-    EXPECT_TRUE(h->lr_consistent);
-    for (uint32_t k = 1; k < p.num_hypotheses; ++k) {
-      const DisparityHypothesis& rival = out.hypotheses[p.first_hypothesis + k];
-      EXPECT_GT(rival.cost, 0.0f);
-      EXPECT_GE(rival.d_px, options.min_disparity_px);
-      EXPECT_LE(rival.d_px, options.max_disparity_px);
-    }
-    if (p.num_hypotheses > 1) ++with_rivals;
-  }
-  // Each row holds 23 left corners' distractors, so most points see several right corners.
-  EXPECT_GE(with_rivals, out.points.size() * 9 / 10);
-}
-
-TEST(PairCorners, RowToleranceWidensTheWindow) {
-  constexpr int kD = 8;
-  const cv::Mat tex = randomTexture(400, 140, 121);
-  const StereoPair pair = shiftedPair(tex, 320, 120, kD, 1);  // right one row low
-  const std::vector<Corner> left_corners = gridCorners(80, 310, 5, 110, 10);
-  std::vector<Corner> right_corners;
-  for (const Corner& c : left_corners) right_corners.push_back({c.u_px - kD, c.v_px + 1, 1.0f});
-  SalientSadOptions options;
-  StereoHypotheses out;
-  ASSERT_TRUE(
-      pairCorners(pair.left, pair.right, left_corners, right_corners, options, &out).isOk());
-  EXPECT_TRUE(out.hypotheses.empty());  // m = 0: no right corner on the same row
-  options.row_tolerance_px = 1;
-  ASSERT_TRUE(
-      pairCorners(pair.left, pair.right, left_corners, right_corners, options, &out).isOk());
-  ASSERT_EQ(out.points.size(), left_corners.size());
-  for (const SalientPoint& p : out.points) {
-    const DisparityHypothesis* h = best(out, p);
-    ASSERT_NE(h, nullptr);
-    EXPECT_EQ(h->d_px, static_cast<float>(kD));
-    EXPECT_EQ(h->row_offset_px, 1);
-    EXPECT_EQ(h->cost, 0.0f);
-  }
-}
-
-TEST(PairCorners, KeepsTheKCheapestAndFlagsMutualBest) {
-  // One left corner, many right corners in its row: K = 2 keeps the two cheapest. A second
-  // left corner that is the exact match of right corner X makes the first's pairing with X
-  // not mutual-best.
-  const cv::Mat tex = randomTexture(300, 20, 131);
-  cv::Mat left = tex(cv::Rect(0, 0, 200, 9)).clone();
-  cv::Mat right = tex(cv::Rect(0, 0, 200, 9)).clone();  // d = 0 everywhere
-  const int row = 4;
-  const std::vector<Corner> left_corners = {{120, row, 1.0f}, {100, row, 1.0f}};
-  std::vector<Corner> right_corners;
-  for (int u = 60; u <= 120; u += 5) right_corners.push_back({u, row, 1.0f});
-  SalientSadOptions options;
-  options.max_hypotheses = 2;
-  StereoHypotheses out;
-  ASSERT_TRUE(
-      pairCorners(toImageU8(left), toImageU8(right), left_corners, right_corners, options, &out)
-          .isOk());
-  ASSERT_EQ(out.points.size(), 2u);
-  expectWellFormed(out, 2);
-  // Left 120 pairs with right 120 (d = 0, exact), left 100 with right 100 (exact).
-  const DisparityHypothesis* a = best(out, out.points[0]);
-  const DisparityHypothesis* b = best(out, out.points[1]);
-  ASSERT_NE(a, nullptr);
-  ASSERT_NE(b, nullptr);
-  EXPECT_EQ(a->d_px, 0.0f);
-  EXPECT_TRUE(a->lr_consistent);
-  EXPECT_EQ(b->d_px, 0.0f);
-  EXPECT_TRUE(b->lr_consistent);
-  ASSERT_EQ(out.points[0].num_hypotheses, 2u);
-  const DisparityHypothesis& a2 = out.hypotheses[out.points[0].first_hypothesis + 1];
-  EXPECT_GT(a2.cost, 0.0f);
-  // If a2 points at right corner 100 (d = 20), left 100 beats it there exactly.
-  if (a2.d_px == 20.0f) {
-    EXPECT_FALSE(a2.lr_consistent);
-  }
-}
-
 // ---------------------------------------------------------------------------------------------
 // Middlebury: recall_at_k and single-best bad1 against ground truth (METRICS.md).
 

@@ -22,9 +22,9 @@ namespace {
 namespace fs = std::filesystem;
 
 /// Leaf keys per section (the option structs' fields, enums included).
-constexpr int kHarrisKeys = 13;
-constexpr int kSadKeys = 17;
-constexpr int kFrontendOwnKeys = 1;  // source
+constexpr int kHarrisKeys = 12;      // HarrisOptions::simd comes from frontend.simd
+constexpr int kSadKeys = 16;         // SalientSadOptions::simd comes from frontend.simd
+constexpr int kFrontendOwnKeys = 2;  // source, simd
 constexpr int kLandmarkKeys = 54;
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
@@ -108,10 +108,9 @@ TEST(PipelineConfig, AwkwardValuesRoundTripBitForBit) {
   PipelineConfig c;
   c.frontend.harris.k = std::nextafter(0.04f, 1.0f);
   c.frontend.harris.initial_threshold = 123456789.0f;
-  c.frontend.harris.use_avx2 = false;
+  c.frontend.simd = frontend::Simd::kScalar;
   c.frontend.harris.bucketing = true;
   c.frontend.sad.cost_ratio = 1.0f / 3.0f + 1.0f;
-  c.frontend.sad.kernel = frontend::SadKernel::kScalar;
   c.frontend.source = frontend::HypothesisSource::kCornerPairing;
   c.landmarks.policy = landmarks::Policy::kInlierRatio;
   c.landmarks.gate_chi2 = 0.1 + 0.2;
@@ -131,7 +130,7 @@ TEST(PipelineConfig, AwkwardValuesRoundTripBitForBit) {
   EXPECT_EQ(toYaml(parsed), toYaml(c));
   EXPECT_EQ(parsed.frontend.harris.k, c.frontend.harris.k);
   EXPECT_EQ(parsed.frontend.sad.cost_ratio, c.frontend.sad.cost_ratio);
-  EXPECT_EQ(parsed.frontend.sad.kernel, frontend::SadKernel::kScalar);
+  EXPECT_EQ(parsed.frontend.simd, frontend::Simd::kScalar);
   EXPECT_EQ(parsed.frontend.source, frontend::HypothesisSource::kCornerPairing);
   EXPECT_EQ(parsed.landmarks.policy, landmarks::Policy::kInlierRatio);
   EXPECT_EQ(parsed.landmarks.gate_chi2, 0.1 + 0.2);
@@ -226,10 +225,8 @@ TEST(PipelineConfig, EachSectionAlone) {
        [](const PipelineConfig& c) { return c.frontend.harris.max_corners == 1500; }},
       {"frontend: {sad: {zero_mean: true}}",
        [](const PipelineConfig& c) { return c.frontend.sad.zero_mean; }},
-      {"frontend: {sad: {kernel: scalar}}",
-       [](const PipelineConfig& c) {
-         return c.frontend.sad.kernel == frontend::SadKernel::kScalar;
-       }},
+      {"frontend: {simd: scalar}",
+       [](const PipelineConfig& c) { return c.frontend.simd == frontend::Simd::kScalar; }},
       {"landmarks: {min_observations: 6}",
        [](const PipelineConfig& c) { return c.landmarks.min_observations == 6; }},
       {"landmarks: {policy: seen-count}",
@@ -263,8 +260,8 @@ TEST(PipelineConfig, RejectsWrongTypes) {
       "landmarks: {min_observations: 1e3}", "landmarks.min_observations", "expected an integer");
   expectError(
       "mapping: {insert_free_space: 2}", "mapping.insert_free_space", "expected true or false");
-  expectError("frontend: {harris: {use_avx2: maybe}}",
-              "frontend.harris.use_avx2",
+  expectError("frontend: {harris: {bucketing: maybe}}",
+              "frontend.harris.bucketing",
               "expected true or false");
   expectError("seed: -1", "seed", "expected a non-negative integer");
   expectError("seed: 1.5", "seed", "expected a non-negative integer");
@@ -286,6 +283,39 @@ TEST(PipelineConfig, RejectsNonFiniteAndOutOfRangeNumbers) {
       "frontend: {harris: {threshold_max: 1e39}}", "frontend.harris.threshold_max", "out of range");
   expectError("landmarks: {max_confirmed: 10000000000}", "landmarks.max_confirmed", "out of range");
   expectError("seed: 100000000000000000000", "seed", "out of range");
+}
+
+// Every frontend int option at INT_MAX is rejected by validate() with the key's full path (before
+// the bounds, border_px and sad.lr_tolerance_px at INT_MAX ran into signed overflow, UBSan, and
+// Release exited 0); the loader already rejects non-finite floats and out-of-range ints.
+TEST(PipelineConfig, RejectsFrontendValuesBeyondWhatTheCodeHonours) {
+  for (const char* key :
+       {"border_px", "target_count", "max_corners", "grid_cols", "grid_rows", "max_per_cell"}) {
+    SCOPED_TRACE(key);
+    expectError(std::string("frontend: {harris: {") + key + ": 2147483647}}",
+                std::string("frontend.harris.") + key + " = 2147483647");
+  }
+  for (const char* key : {"window_width_px",
+                          "max_disparity_px",
+                          "row_tolerance_px",
+                          "max_hypotheses",
+                          "min_separation_px",
+                          "lr_tolerance_px",
+                          "row_support_radius_px"}) {
+    SCOPED_TRACE(key);
+    expectError(std::string("frontend: {sad: {") + key + ": 2147483647}}",
+                std::string("frontend.sad.") + key + " = 2147483647");
+  }
+  expectError("frontend: {sad: {min_disparity_px: 2147483646, max_disparity_px: 2147483647}}",
+              "frontend.sad.min_disparity_px = 2147483646");
+  for (const char* key : {"cost_ratio", "complete_cost_ratio", "max_cost_per_px"}) {
+    SCOPED_TRACE(key);
+    expectError(std::string("frontend: {sad: {") + key + ": .nan}}",
+                std::string("frontend.sad.") + key,
+                "finite");
+  }
+  expectError("frontend: {harris: {border_px: 32769}}", "frontend.harris.border_px", "32768");
+  expectError("frontend: {sad: {lr_tolerance_px: 257}}", "frontend.sad.lr_tolerance_px", "256");
 }
 
 TEST(PipelineConfig, RejectsUnknownKeysWithASuggestion) {
@@ -313,7 +343,17 @@ TEST(PipelineConfig, RejectsBadSectionsAndDocuments) {
 TEST(PipelineConfig, RejectsUnknownEnumNames) {
   expectError("landmarks: {policy: best}", "landmarks.policy", "consistency");
   expectError("frontend: {source: sgm}", "frontend.source", "sad or pairing");
-  expectError("frontend: {sad: {kernel: neon}}", "frontend.sad.kernel", "avx2");
+  expectError("frontend: {simd: neon}", "frontend.simd", "avx2");
+}
+
+// The per-component SIMD switches became the one knob frontend.simd.
+TEST(PipelineConfig, OldSimdKeysNameTheNewKey) {
+  expectError("frontend: {harris: {use_avx2: false}}",
+              "frontend.harris.use_avx2 was replaced by frontend.simd",
+              "(line 1)");
+  expectError("frontend:\n  sad:\n    kernel: scalar\n",
+              "frontend.sad.kernel was replaced by frontend.simd",
+              "(line 3)");
 }
 
 TEST(PipelineConfig, ReportsYamlSyntaxErrors) {
