@@ -163,7 +163,7 @@ Status RawlogWriter::open(const std::string& path,
 
 RawlogWriter::~RawlogWriter() {
   if (finished_) return;
-  if (impl_) impl_->stream.close();
+  if (impl_ && !closed_) impl_->stream.close();
   std::error_code ec;
   if (!partial_path_.empty()) fs::remove(partial_path_, ec);
   if (!partial_images_dir_.empty()) fs::remove_all(partial_images_dir_, ec);
@@ -256,8 +256,45 @@ Status RawlogWriter::write(const StereoFrame& stereo,
   return Status::ok();
 }
 
-Status RawlogWriter::finish() {
-  if (finished_) return Status::ok();
+Status commitStaged(const std::vector<StagedMove>& moves) {
+  std::error_code ec;
+  // Undo log: (from, to) renames done so far, replayed backwards on failure.
+  std::vector<std::pair<fs::path, fs::path>> done;
+  const auto rollback = [&] {
+    for (auto it = done.rbegin(); it != done.rend(); ++it) {
+      std::error_code ignored;
+      fs::rename(it->second, it->first, ignored);
+    }
+  };
+  std::vector<fs::path> aside;
+  for (const StagedMove& m : moves) {
+    const fs::path final_path(m.final_path);
+    if (!fs::exists(fs::symlink_status(final_path, ec))) continue;
+    const fs::path old = m.final_path + ".old";
+    fs::remove_all(old, ec);
+    fs::rename(final_path, old, ec);
+    if (ec) {
+      rollback();
+      return Status::error("cannot replace '" + m.final_path + "': " + ec.message());
+    }
+    done.emplace_back(final_path, old);
+    aside.push_back(old);
+  }
+  for (const StagedMove& m : moves) {
+    fs::rename(m.staged, m.final_path, ec);
+    if (ec) {
+      const std::string why = ec.message();
+      rollback();
+      return Status::error("cannot move '" + m.staged + "' to '" + m.final_path + "': " + why);
+    }
+    done.emplace_back(m.staged, m.final_path);
+  }
+  for (const fs::path& old : aside) fs::remove_all(old, ec);
+  return Status::ok();
+}
+
+Status RawlogWriter::close() {
+  if (finished_ || closed_) return Status::ok();
   try {
     auto arch = mrpt::serialization::archiveFrom(impl_->stream);
     mrpt::obs::CObservationComment end;
@@ -269,15 +306,18 @@ Status RawlogWriter::finish() {
     return Status::error("cannot write '" + partial_path_ + "': " + e.what());
   }
   impl_->stream.close();
-  std::error_code ec;
-  fs::remove_all(images_dir_, ec);
-  fs::rename(partial_images_dir_, images_dir_, ec);
-  if (ec)
-    return Status::error("cannot move '" + partial_images_dir_ + "' to '" + images_dir_ +
-                         "': " + ec.message());
-  fs::rename(partial_path_, path_, ec);
-  if (ec)
-    return Status::error("cannot move '" + partial_path_ + "' to '" + path_ + "': " + ec.message());
+  closed_ = true;
+  return Status::ok();
+}
+
+std::vector<StagedMove> RawlogWriter::stagedMoves() const {
+  return {{partial_images_dir_, images_dir_}, {partial_path_, path_}};
+}
+
+Status RawlogWriter::finish() {
+  if (finished_) return Status::ok();
+  if (Status st = close(); !st) return st;
+  if (Status st = commitStaged(stagedMoves()); !st) return st;
   finished_ = true;
   return Status::ok();
 }

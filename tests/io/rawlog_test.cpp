@@ -228,3 +228,42 @@ TEST(Rawlog, MissingCorruptAndTruncatedLogsAreErrors) {
 
 }  // namespace
 }  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+TEST(Rawlog, CommitStagedIsAllOrNothing) {
+  const std::string dir = test::makeTempDir("commit_staged");
+  const auto write = [](const std::string& path, const std::string& text) {
+    std::ofstream(path) << text;
+  };
+  const auto read = [](const std::string& path) {
+    std::ifstream f(path);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+  };
+  write(dir + "/a", "old a");
+  write(dir + "/a.partial", "new a");
+  write(dir + "/b", "old b");
+  // The second staged file is missing: nothing may change.
+  const Status st =
+      commitStaged({{dir + "/a.partial", dir + "/a"}, {dir + "/b.partial", dir + "/b"}});
+  EXPECT_FALSE(st.isOk());
+  EXPECT_NE(st.message().find(dir + "/b.partial"), std::string::npos) << st.message();
+  EXPECT_EQ(read(dir + "/a"), "old a");
+  EXPECT_EQ(read(dir + "/a.partial"), "new a");
+  EXPECT_EQ(read(dir + "/b"), "old b");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/a.old"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/b.old"));
+
+  write(dir + "/b.partial", "new b");
+  ASSERT_TRUE(
+      commitStaged({{dir + "/a.partial", dir + "/a"}, {dir + "/b.partial", dir + "/b"}}).isOk());
+  EXPECT_EQ(read(dir + "/a"), "new a");
+  EXPECT_EQ(read(dir + "/b"), "new b");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/a.old"));
+}
+
+}  // namespace
+}  // namespace twocam::io
