@@ -3,6 +3,7 @@
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/io/CStream.h>
 #include <mrpt/obs/CActionCollection.h>
 #include <mrpt/obs/CActionRobotMovement2D.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
@@ -27,6 +28,9 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace twocam::io {
 
@@ -325,8 +329,101 @@ Status RawlogWriter::finish() {
 // ---------------------------------------------------------------------------------------------
 // Reader
 
+namespace {
+
+/// A read-only stream over another with look-ahead: peek() reads bytes ahead without consuming
+/// them, so that sizes can be checked before MRPT's deserialisers allocate by them.
+class PeekableStream : public mrpt::io::CStream {
+ public:
+  explicit PeekableStream(mrpt::io::CStream& source) : source_(source) {}
+
+  size_t Read(void* buffer, size_t count) override {
+    auto* out = static_cast<uint8_t*>(buffer);
+    const size_t from_ahead = std::min(count, ahead_.size() - ahead_pos_);
+    std::memcpy(out, ahead_.data() + ahead_pos_, from_ahead);
+    ahead_pos_ += from_ahead;
+    if (ahead_pos_ == ahead_.size()) {
+      ahead_.clear();
+      ahead_pos_ = 0;
+    }
+    size_t n = from_ahead;
+    if (n < count) n += source_.Read(out + n, count - n);
+    position_ += n;
+    return n;
+  }
+  size_t Write(const void* /*buffer*/, size_t /*count*/) override { return 0; }
+  uint64_t Seek(int64_t /*offset*/, TSeekOrigin /*origin*/) override {
+    throw std::runtime_error("rawlog reader: seek not supported");
+  }
+  uint64_t getTotalBytesCount() const override { return source_.getTotalBytesCount(); }
+  uint64_t getPosition() const override { return position_; }
+
+  /// The next `count` bytes (fewer at the end of the stream), left unread.
+  std::string peek(size_t count) {
+    const size_t have = ahead_.size() - ahead_pos_;
+    if (have < count) {
+      std::string more(count - have, '\0');
+      more.resize(source_.Read(more.data(), more.size()));
+      ahead_.append(more);
+    }
+    return ahead_.substr(ahead_pos_, count);
+  }
+
+ private:
+  mrpt::io::CStream& source_;
+  std::string ahead_;
+  size_t ahead_pos_ = 0;
+  uint64_t position_ = 0;
+};
+
+/// A size in the log that the log itself does not allow: an error of the frame being read.
+class BadSizeError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Largest image a log may declare before the stereo rig is known, or in logs not written by
+/// TwoCam [px per side]; TwoCam's own depth images have the rig's size.
+constexpr uint32_t kMaxForeignImageSidePx = 16384;
+constexpr uint64_t kMaxForeignImagePixels = uint64_t{1} << 26;  // 64 Mpx, 128 MB of uint16
+
+/// MRPT 2.5's serialisation of CObservation3DRangeScan (version 10) up to the range image size,
+/// as TwoCam's writer produces it (no 3-D points):
+///   0xa2 "mrpt::obs::CObservation3DRangeScan" 0x0a | float maxRange |
+///   0x94 "mrpt::poses::CPose3D" 0x03 12 x double 0x88 | bool hasPoints3D = 0 |
+///   bool hasRangeImage = 1 | float rangeUnits | uint32 rows | uint32 cols | rows x cols x uint16
+/// Returns the (rows, cols) such an object declares, or nullopt if the next object is anything
+/// else (other classes and layouts are left to MRPT).
+std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& stream) {
+  static const std::string kClass = "mrpt::obs::CObservation3DRangeScan";
+  static const std::string kPose = "mrpt::poses::CPose3D";
+  const size_t pose_at = 1 + kClass.size() + 1 + 4;
+  const size_t after_pose = pose_at + 1 + kPose.size() + 1 + 12 * 8 + 1;
+  const size_t size_at = after_pose + 2 + 4;
+  const std::string b = stream.peek(size_at + 8);
+  if (b.size() < size_at + 8) return std::nullopt;
+  const auto byte = [&](size_t i) { return static_cast<uint8_t>(b[i]); };
+  if (byte(0) != (0x80 | kClass.size()) || b.compare(1, kClass.size(), kClass) != 0 ||
+      byte(1 + kClass.size()) != 10) {
+    return std::nullopt;
+  }
+  if (byte(pose_at) != (0x80 | kPose.size()) || b.compare(pose_at + 1, kPose.size(), kPose) != 0 ||
+      byte(after_pose - 1) != 0x88) {
+    return std::nullopt;
+  }
+  if (byte(after_pose) != 0 || byte(after_pose + 1) != 1) return std::nullopt;
+  uint32_t rows = 0;
+  uint32_t cols = 0;
+  std::memcpy(&rows, b.data() + size_at, 4);  // MRPT archives are little-endian
+  std::memcpy(&cols, b.data() + size_at + 4, 4);
+  return std::make_pair(rows, cols);
+}
+
+}  // namespace
+
 struct RawlogReader::Impl {
   mrpt::io::CFileGZInputStream stream;
+  PeekableStream peekable{stream};
   std::string path;
   std::string images_dir;
   bool is_twocam = false;
@@ -345,14 +442,44 @@ struct RawlogReader::Impl {
   /// it): the frame is delivered and the error reported by the following next().
   std::optional<std::string> deferred_error;
 
+  /// Image size of the log's stereo rig once known (0 before).
+  int rig_width_px = 0;
+  int rig_height_px = 0;
+
+  /// Refuses a depth image whose declared size the log does not allow, before MRPT allocates
+  /// it (MRPT 2.5's aligned allocator returns null for a huge request and the resize then
+  /// writes through it: a one-byte change of the size field crashed `twocam run`).
+  void checkNextObjectSizes() {
+    const auto size = peekRangeImageSize(peekable);
+    if (!size) return;
+    const auto [rows, cols] = *size;
+    std::ostringstream os;
+    if (is_twocam && rig_width_px > 0) {
+      if (rows == static_cast<uint32_t>(rig_height_px) &&
+          cols == static_cast<uint32_t>(rig_width_px))
+        return;
+      os << "depth image declares " << cols << "x" << rows << " pixels; the log's rig is "
+         << rig_width_px << "x" << rig_height_px << " (corrupt log)";
+    } else {
+      if (rows <= kMaxForeignImageSidePx && cols <= kMaxForeignImageSidePx &&
+          uint64_t{rows} * cols <= kMaxForeignImagePixels)
+        return;
+      os << "depth image declares " << cols << "x" << rows << " pixels, above the limit of "
+         << kMaxForeignImageSidePx << " per side and " << kMaxForeignImagePixels
+         << " in all (corrupt log)";
+    }
+    throw BadSizeError(os.str());
+  }
+
   /// Reads the next observation (flattening sensory frames and odometry actions).
   /// Returns nullptr at the end; throws on corrupt data.
   mrpt::obs::CObservation::Ptr read() {
     while (pending.empty()) {
       if (eof) return nullptr;
       mrpt::serialization::CSerializable::Ptr obj;
+      checkNextObjectSizes();
       try {
-        auto arch = mrpt::serialization::archiveFrom(stream);
+        auto arch = mrpt::serialization::archiveFrom(peekable);
         obj = arch.ReadObject();
       } catch (const mrpt::serialization::CExceptionEOF&) {
         eof = true;
@@ -530,6 +657,8 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
         if (Status st = checkRectified(*s); !st)
           return Status::error("log '" + path + "': " + st.message());
         r->rig_ = rigFromObservation(*s);
+        r->impl_->rig_width_px = r->rig_.width_px;
+        r->impl_->rig_height_px = r->rig_.height_px;
         r->impl_->stereo_label = s->sensorLabel;
         r->impl_->rig_known = true;
         break;
@@ -615,6 +744,8 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       mrpt::obs::CObservation::Ptr o;
       try {
         o = impl_->read();
+      } catch (const BadSizeError&) {
+        throw;  // the frame's own depth image: this frame fails
       } catch (const std::exception& e) {
         impl_->deferred_error = "corrupt or truncated log: " + shortWhat(e);
         break;

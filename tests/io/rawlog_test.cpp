@@ -1,11 +1,13 @@
 #include "io/rawlog.h"
 
 #include <gtest/gtest.h>
+#include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
 #include <mrpt/obs/CRawlog.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -263,6 +265,62 @@ TEST(Rawlog, CommitStagedIsAllOrNothing) {
   EXPECT_EQ(read(dir + "/a"), "new a");
   EXPECT_EQ(read(dir + "/b"), "new b");
   EXPECT_FALSE(std::filesystem::exists(dir + "/a.old"));
+}
+
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+/// The decompressed bytes of a (gzip) rawlog.
+std::string decompressed(const std::string& path) {
+  mrpt::io::CFileGZInputStream in(path);
+  std::string bytes;
+  char buf[65536];
+  for (size_t n; (n = in.Read(buf, sizeof(buf))) > 0;) bytes.append(buf, n);
+  return bytes;
+}
+
+TEST(Rawlog, CorruptDepthImageSizeIsAnErrorNamingTheFrame) {
+  const std::string dir = test::makeTempDir("rawlog_depth_size");
+  writeLog(dir + "/run.rawlog", 3);
+  const std::string bytes = decompressed(dir + "/run.rawlog");
+  // Each frame's depth image: class name, ..., uint32 rows, uint32 cols (little-endian), data.
+  const std::string cls = "mrpt::obs::CObservation3DRangeScan";
+  const StereoRig rig = testRig();
+  std::string size_field(8, '\0');
+  const uint32_t rows = static_cast<uint32_t>(rig.height_px);
+  const uint32_t cols = static_cast<uint32_t>(rig.width_px);
+  std::memcpy(size_field.data(), &rows, 4);
+  std::memcpy(size_field.data() + 4, &cols, 4);
+  size_t at = bytes.find(cls);
+  at = bytes.find(cls, at + 1);  // frame 1's
+  ASSERT_NE(at, std::string::npos);
+  const size_t field = bytes.find(size_field, at);
+  ASSERT_NE(field, std::string::npos);
+  ASSERT_LT(field - at, 200u) << "size field not where MRPT 2.5 puts it";
+  fs::create_directory_symlink(dir + "/run_Images", dir + "/bad_Images");
+  // One byte changed: the rows' high byte (2^31 rows, which crashed in MRPT's allocator), or
+  // the cols' third byte (a 4 GB image that exhausted memory).
+  for (const size_t offset : {size_t{3}, size_t{6}}) {
+    std::string bad = bytes;
+    bad[field + offset] = static_cast<char>(0x7f);
+    {
+      // Uncompressed: MRPT's gzip reader passes plain files through.
+      std::ofstream out(dir + "/bad.rawlog", std::ios::binary | std::ios::trunc);
+      out << bad;
+    }
+    std::unique_ptr<RawlogReader> r;
+    ASSERT_TRUE(RawlogReader::open(dir + "/bad.rawlog", &r).isOk());
+    LogFrame frame;
+    Status st;
+    int n = 0;
+    while (r->next(&frame, &st)) ++n;
+    EXPECT_EQ(n, 1) << "frame 0 is intact";
+    EXPECT_NE(st.message().find("frame 1: "), std::string::npos) << st.message();
+    EXPECT_NE(st.message().find("depth image declares"), std::string::npos) << st.message();
+  }
 }
 
 }  // namespace
