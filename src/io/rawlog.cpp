@@ -635,6 +635,42 @@ bool sameCalibration(const StereoRig& a, const StereoRig& b) {
 }
 }  // namespace
 
+namespace {
+/// Odometry and ground truth must be finite numbers within kMaxLogCoordinateM: the maths
+/// downstream (voxel keys, distinct-point counts) converts coordinates to integers.
+Status checkFinite(const LogFrame& frame) {
+  const auto bad = [](double v) { return !std::isfinite(v) || std::abs(v) > kMaxLogCoordinateM; };
+  std::ostringstream os;
+  os.precision(17);
+  if (frame.odometry) {
+    const Pose2& p = frame.odometry->pose;
+    if (bad(p.x_m) || bad(p.y_m) || !std::isfinite(p.yaw_rad)) {
+      os << "odometry pose (" << p.x_m << ", " << p.y_m << ", " << p.yaw_rad
+         << ") is not finite or beyond " << kMaxLogCoordinateM << " m";
+      return Status::error(os.str());
+    }
+  }
+  if (frame.ground_truth) {
+    const Eigen::Matrix4d& M = frame.ground_truth->T_w_b.matrix();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) {
+        if (!std::isfinite(M(r, c)) || (c == 3 && bad(M(r, c)))) {
+          os << "ground-truth pose has a non-finite entry or a translation beyond "
+             << kMaxLogCoordinateM << " m (" << M(0, 3) << ", " << M(1, 3) << ", " << M(2, 3)
+             << ")";
+          return Status::error(os.str());
+        }
+      }
+    const ImageF32& d = frame.ground_truth->depth_left;
+    for (float v : d.data) {
+      if (!std::isfinite(v))
+        return Status::error("ground-truth depth image has a non-finite value");
+    }
+  }
+  return Status::ok();
+}
+}  // namespace
+
 Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>* out) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
@@ -780,6 +816,11 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
     impl_->eof = true;
     impl_->pending.clear();
     return fail("corrupt or truncated log: " + shortWhat(e));
+  }
+  if (Status st = checkFinite(*frame); !st) {
+    impl_->eof = true;
+    impl_->pending.clear();
+    return fail(st.message());
   }
   ++index_;
   return true;

@@ -107,6 +107,10 @@ class RawlogWriter {
 /// exists, else "<dir>/Images" (MRPT's convention).
 std::string imagesDirectoryFor(const std::string& rawlog_path);
 
+/// Largest coordinate a log's odometry or ground-truth translation may have [m]; a frame with a
+/// larger, NaN or infinite pose (or a non-finite ground-truth depth) is an error naming it.
+inline constexpr double kMaxLogCoordinateM = 1e6;
+
 /// One frame read from a log.
 struct LogFrame {
   int index = 0;

@@ -10,6 +10,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <random>
 
 #include "support/test_paths.h"
@@ -320,6 +322,53 @@ TEST(Rawlog, CorruptDepthImageSizeIsAnErrorNamingTheFrame) {
     EXPECT_EQ(n, 1) << "frame 0 is intact";
     EXPECT_NE(st.message().find("frame 1: "), std::string::npos) << st.message();
     EXPECT_NE(st.message().find("depth image declares"), std::string::npos) << st.message();
+  }
+}
+
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+TEST(Rawlog, NonFiniteOrHugePosesAreErrorsNamingTheFrame) {
+  const std::string dir = test::makeTempDir("rawlog_nan");
+  struct Case {
+    const char* name;
+    std::function<void(Frame*)> spoil;
+    const char* expected;
+  };
+  const std::vector<Case> cases = {
+      {"nan_odometry",
+       [](Frame* f) { f->odom.pose.x_m = std::numeric_limits<double>::quiet_NaN(); },
+       "odometry pose"},
+      {"inf_yaw",
+       [](Frame* f) { f->odom.pose.yaw_rad = std::numeric_limits<double>::infinity(); },
+       "odometry pose"},
+      {"nan_gt", [](Frame* f) { f->gt.T_w_b.matrix()(0, 0) = std::nan(""); }, "ground-truth pose"},
+      {"huge_gt", [](Frame* f) { f->gt.T_w_b.translation().x() = 1e300; }, "ground-truth pose"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = dir + "/" + c.name + ".rawlog";
+    const StereoRig rig = testRig();
+    std::mt19937 rng(42);
+    std::unique_ptr<RawlogWriter> w;
+    ASSERT_TRUE(RawlogWriter::open(path, rig, {}, &w).isOk());
+    for (int k = 0; k < 3; ++k) {
+      Frame f = makeFrame(rig, k, rng);
+      if (k == 1) c.spoil(&f);
+      ASSERT_TRUE(w->write(f.stereo, &f.odom, &f.gt).isOk());
+    }
+    ASSERT_TRUE(w->finish().isOk());
+    std::unique_ptr<RawlogReader> r;
+    ASSERT_TRUE(RawlogReader::open(path, &r).isOk());
+    LogFrame frame;
+    Status st;
+    int n = 0;
+    while (r->next(&frame, &st)) ++n;
+    EXPECT_EQ(n, 1) << c.name;
+    EXPECT_NE(st.message().find("frame 1: " + std::string(c.expected)), std::string::npos)
+        << c.name << ": " << st.message();
   }
 }
 
