@@ -20,10 +20,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <filesystem>
 #include <limits>
+#include <new>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -31,6 +33,47 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+
+namespace twocam::io {
+namespace {
+/// Largest single allocation while MRPT deserialises one object of a log, 0 = no limit. MRPT
+/// reads a length (string, vector, image) from the archive and allocates by it before reading
+/// the data, so one changed byte asked for gigabytes (zero-filled: all memory). 256 MiB is far
+/// above any real observation (a 4096 x 3072 colour image is 36 MiB).
+thread_local size_t g_allocation_cap_bytes = 0;
+constexpr size_t kMaxObjectAllocationBytes = size_t{256} << 20;
+
+/// Sets the cap for its lifetime.
+class AllocationCap {
+ public:
+  explicit AllocationCap(size_t bytes) : saved_(g_allocation_cap_bytes) {
+    g_allocation_cap_bytes = bytes;
+  }
+  ~AllocationCap() { g_allocation_cap_bytes = saved_; }
+  AllocationCap(const AllocationCap&) = delete;
+  AllocationCap& operator=(const AllocationCap&) = delete;
+
+ private:
+  size_t saved_;
+};
+}  // namespace
+}  // namespace twocam::io
+
+// The global operator new, replaced so that the cap above can refuse a request (the standard
+// allows a program to replace it; the default operator delete frees with std::free, matching
+// std::malloc here). Without a cap it behaves as the default.
+void* operator new(std::size_t bytes) {
+  if (twocam::io::g_allocation_cap_bytes != 0 && bytes > twocam::io::g_allocation_cap_bytes)
+    throw std::bad_alloc();
+  void* p = std::malloc(bytes == 0 ? 1 : bytes);
+  while (p == nullptr) {
+    std::new_handler handler = std::get_new_handler();
+    if (handler == nullptr) throw std::bad_alloc();
+    handler();
+    p = std::malloc(bytes == 0 ? 1 : bytes);
+  }
+  return p;
+}
 
 namespace twocam::io {
 
@@ -479,11 +522,15 @@ struct RawlogReader::Impl {
       mrpt::serialization::CSerializable::Ptr obj;
       checkNextObjectSizes();
       try {
+        const AllocationCap cap(kMaxObjectAllocationBytes);
         auto arch = mrpt::serialization::archiveFrom(peekable);
         obj = arch.ReadObject();
       } catch (const mrpt::serialization::CExceptionEOF&) {
         eof = true;
         return nullptr;
+      } catch (const std::bad_alloc&) {
+        throw BadSizeError("an object declares a size above " +
+                           std::to_string(kMaxObjectAllocationBytes >> 20) + " MiB (corrupt log)");
       }
       if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj)) {
         if (auto c = std::dynamic_pointer_cast<mrpt::obs::CObservationComment>(obs)) {

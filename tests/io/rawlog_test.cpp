@@ -331,6 +331,25 @@ TEST(Rawlog, CorruptDepthImageSizeIsAnErrorNamingTheFrame) {
 namespace twocam::io {
 namespace {
 
+TEST(Rawlog, HugeDeclaredStringIsAnErrorNotAnAllocation) {
+  const std::string dir = test::makeTempDir("rawlog_string_size");
+  writeLog(dir + "/run.rawlog", 2);
+  std::string bytes = decompressed(dir + "/run.rawlog");
+  // The header comment's text is a uint32 length and its characters.
+  const size_t text = bytes.find("twocam rawlog v1");
+  ASSERT_NE(text, std::string::npos);
+  ASSERT_GE(text, 4u);
+  bytes[text - 1] = static_cast<char>(0x7f);  // ~2 GiB, zero-filled by std::string
+  {
+    std::ofstream out(dir + "/bad.rawlog", std::ios::binary);
+    out << bytes;
+  }
+  std::unique_ptr<RawlogReader> r;
+  const Status st = RawlogReader::open(dir + "/bad.rawlog", &r);
+  EXPECT_FALSE(st.isOk());
+  EXPECT_NE(st.message().find("above 256 MiB"), std::string::npos) << st.message();
+}
+
 TEST(Rawlog, NonFiniteOrHugePosesAreErrorsNamingTheFrame) {
   const std::string dir = test::makeTempDir("rawlog_nan");
   struct Case {
