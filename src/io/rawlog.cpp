@@ -60,8 +60,7 @@ class AllocationCap {
 }  // namespace twocam::io
 
 // The global operator new, replaced so that the cap above can refuse a request (the standard
-// allows a program to replace it; the default operator delete frees with std::free, matching
-// std::malloc here). Without a cap it behaves as the default.
+// allows a program to replace it). Without a cap it behaves as the default.
 void* operator new(std::size_t bytes) {
   if (twocam::io::g_allocation_cap_bytes != 0 && bytes > twocam::io::g_allocation_cap_bytes)
     throw std::bad_alloc();
@@ -74,6 +73,17 @@ void* operator new(std::size_t bytes) {
   }
   return p;
 }
+// Matching deletes (std::free), also needed where a sanitizer supplies its own operators. GCC
+// cannot see that the operator new above allocates with std::malloc.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 namespace twocam::io {
 
