@@ -1,5 +1,6 @@
 #include "io/rawlog.h"
 
+#include <fcntl.h>
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
@@ -16,6 +17,7 @@
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DQuat.h>
 #include <mrpt/serialization/CArchive.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -73,6 +75,18 @@ void* operator new(std::size_t bytes) {
   }
   return p;
 }
+void* operator new[](std::size_t bytes) { return operator new(bytes); }
+void* operator new(std::size_t bytes, const std::nothrow_t& /*tag*/) noexcept {
+  try {
+    return operator new(bytes);
+  } catch (const std::bad_alloc&) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t bytes, const std::nothrow_t& tag) noexcept {
+  return operator new(bytes, tag);
+}
+// The aligned forms stay the library's (their own allocate/free pair).
 // Matching deletes (std::free), also needed where a sanitizer supplies its own operators. GCC
 // cannot see that the operator new above allocates with std::malloc.
 #if defined(__GNUC__) && !defined(__clang__)
@@ -81,6 +95,10 @@ void* operator new(std::size_t bytes) {
 #endif
 void operator delete(void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
 #endif
@@ -150,6 +168,29 @@ Status writePng(const ImageU8& img, const std::string& path) {
     return Status::error("cannot write image " + path + ": " + e.what());
   }
   return Status::error("cannot write image " + path);
+}
+
+/// Reads an image with the C library's stderr (fd 2) silenced: libpng prints "libpng error:
+/// ..." there for a corrupt file before OpenCV returns an empty image, and TwoCam reports the
+/// failure in its own words instead. Process-wide while it runs (single-threaded callers).
+cv::Mat imreadQuietly(const std::string& path, int flags) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int null_fd = ::open("/dev/null", O_WRONLY);
+  if (saved >= 0 && null_fd >= 0) ::dup2(null_fd, 2);
+  cv::Mat img;
+  try {
+    img = cv::imread(path, flags);
+  } catch (const cv::Exception&) {
+    img = cv::Mat();
+  }
+  std::fflush(stderr);
+  if (saved >= 0) {
+    ::dup2(saved, 2);
+    ::close(saved);
+  }
+  if (null_fd >= 0) ::close(null_fd);
+  return img;
 }
 
 std::string frameName(const char* prefix, int index) {
@@ -592,7 +633,7 @@ struct RawlogReader::Impl {
       std::error_code ec;
       if (!fs::is_regular_file(file, ec))
         return Status::error(std::string(side) + " image file '" + file + "' is missing");
-      grey = cv::imread(file, cv::IMREAD_GRAYSCALE);
+      grey = imreadQuietly(file, cv::IMREAD_GRAYSCALE);
       if (grey.empty())
         return Status::error("cannot read " + std::string(side) + " image file '" + file + "'");
     } else {

@@ -209,6 +209,14 @@ double faceTexels(const TextureSpec& t, double width_m, double height_m) {
 }
 }  // namespace
 
+int textureCount(const World& world) {
+  int n = 0;
+  for (const Shape& s : world.shapes) {
+    n += s.kind == ShapeKind::kPlane ? 1 : s.kind == ShapeKind::kBox ? 6 : 3;
+  }
+  return n;
+}
+
 double textureTexels(const World& world) {
   double total = 0.0;
   for (const Shape& s : world.shapes) {
@@ -242,6 +250,13 @@ Status World::validate() const {
             "shapes: " + std::to_string(shapes.size()) + " shapes; at most " +
                 std::to_string(kMaxShapes));
   for (size_t i = 0; i < shapes.size() && !c.failed(); ++i) checkShape(shapes[i], i, &c);
+  if (!c.failed()) {
+    const int textures = textureCount(*this);
+    c.require(textures <= kMaxTextures,
+              "shapes: " + std::to_string(textures) +
+                  " textured surfaces (plane 1, box 6, cylinder 3); the renderer holds at most " +
+                  std::to_string(kMaxTextures) + " (MRPT's limit of simultaneous textures)");
+  }
   if (!c.failed()) {
     const double texels = textureTexels(*this);
     if (texels > kMaxWorldTexels) {

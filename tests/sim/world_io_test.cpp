@@ -472,7 +472,11 @@ TEST(WorldIo, EveryShippedWorldLoads) {
     EXPECT_FALSE(w.name.empty()) << entry.path();
     // The shipped worlds stay well inside the texture budget.
     EXPECT_LT(textureTexels(w), 0.5 * kMaxWorldTexels) << entry.path();
-    std::printf("%s: %.1f M texels\n", entry.path().stem().c_str(), textureTexels(w) / (1 << 20));
+    EXPECT_LE(textureCount(w), kMaxTextures) << entry.path();
+    std::printf("%s: %.1f M texels, %d textures\n",
+                entry.path().stem().c_str(),
+                textureTexels(w) / (1 << 20),
+                textureCount(w));
     names.push_back(entry.path().stem().string());
   }
   for (const char* expected : {"office", "garden", "repetitive", "lowtexture"}) {
@@ -499,8 +503,20 @@ TEST(WorldIo, ManyTexturedShapesAreRefusedBeforeRasterising) {
             ", 1], size_m: [2, 2, 2], texture: {kind: blobs, scale_m: 0.1}}\n";
   }
   const std::string error = parseError(text);
-  EXPECT_NE(error.find("shapes: the textures need"), std::string::npos) << error;
-  EXPECT_NE(error.find("at most 128 M"), std::string::npos) << error;
+  EXPECT_NE(
+      error.find("textured surfaces (plane 1, box 6, cylinder 3); the renderer holds at most 192"),
+      std::string::npos)
+      << error;
+  // Few large surfaces: the texel budget.
+  std::string big = kExampleYaml;
+  big += "\n";
+  for (int i = 0; i < 20; ++i) {
+    big += "  - {type: box, center_m: [" + std::to_string(i) +
+           ", 0, 1], size_m: [20, 20, 20], texture: {kind: blobs, scale_m: 0.1}}\n";
+  }
+  const std::string texels = parseError(big);
+  EXPECT_NE(texels.find("shapes: the textures need"), std::string::npos) << texels;
+  EXPECT_NE(texels.find("at most 128 M"), std::string::npos) << texels;
   std::string many = kExampleYaml;
   many += "\n";
   for (int i = 0; i < 1001; ++i)

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -128,6 +129,50 @@ TEST(Reliability, WorldCopyBesideTheLogReadsTheSameFromElsewhere) {
   // The copy simulates the same world from its own folder.
   r = run("simulate " + log_dir + "/a.world.yaml -o " + log_dir + "/b.rawlog --frames 2 -q");
   EXPECT_EQ(r.exit_code, 0) << r.error;
+}
+
+int lineCount(const std::string& text) {
+  int n = 0;
+  for (char c : text) n += c == '\n' ? 1 : 0;
+  return n;
+}
+
+TEST(Reliability, StereoEvalUnknownPictureFormatIsOneLine) {
+  const std::string dir = test::makeTempDir("reliab_stereo_eval");
+  // 64 x 48 grey PGMs: random left, right = left shifted by 4 px, ground truth 4 px.
+  constexpr int kW = 64, kH = 48;
+  std::string left(kW * kH, '\0'), right(kW * kH, '\0');
+  unsigned state = 12345;
+  for (auto& c : left) {
+    state = state * 1103515245u + 12345u;
+    c = static_cast<char>((state >> 16) & 0xff);
+  }
+  for (int v = 0; v < kH; ++v)
+    for (int u = 0; u < kW; ++u) right[v * kW + u] = left[v * kW + std::min(kW - 1, u + 4)];
+  const std::string header = "P5\n" + std::to_string(kW) + " " + std::to_string(kH) + "\n255\n";
+  writeFile(dir + "/l.pgm", header + left);
+  writeFile(dir + "/r.pgm", header + right);
+  writeFile(dir + "/gt.pgm", header + std::string(kW * kH, '\x04'));
+  const RunResult r =
+      run("stereo-eval --left " + dir + "/l.pgm --right " + dir + "/r.pgm --gt " + dir +
+          "/gt.pgm --gt-scale 1 --max-disp 16 --mode dense --image " + dir + "/out.xyz");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.error.find("--image " + dir + "/out.xyz: unknown picture format '.xyz'"),
+            std::string::npos)
+      << r.error;
+  EXPECT_EQ(lineCount(r.error), 1) << r.error;
+}
+
+TEST(Reliability, RigAboveTheRendererLimitIsOneLine) {
+  const std::string dir = test::makeTempDir("reliab_rig");
+  std::string world = readFile(smallWorld());
+  world.replace(world.find("width_px: 640"), 13, "width_px: 20000");
+  writeFile(dir + "/w.yaml", world);
+  const RunResult r = run("simulate " + dir + "/w.yaml -o " + dir + "/w.rawlog --frames 1 -q");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.error.find("rig.width_px = 20000: must be in [16, 4096]"), std::string::npos)
+      << r.error;
+  EXPECT_EQ(lineCount(r.error), 1) << r.error;
 }
 
 }  // namespace
