@@ -33,6 +33,34 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+/// Absolute, normalised form of a path for comparisons (symlinks resolved where they exist).
+fs::path canonicalish(const fs::path& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(fs::absolute(p, ec), ec);
+  return ec ? fs::absolute(p).lexically_normal() : c;
+}
+
+/// Whether `inner` is `outer` or lies under it.
+bool within(const fs::path& inner, const fs::path& outer) {
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o, ++i) {
+    if (o->empty()) continue;  // trailing separator
+    if (i == inner.end() || *i != *o) return false;
+  }
+  return true;
+}
+
+/// Removes staged files on every early return.
+struct StagedCleanup {
+  std::vector<std::string> paths;
+  bool committed = false;
+  ~StagedCleanup() {
+    if (committed) return;
+    std::error_code ec;
+    for (const auto& p : paths) fs::remove_all(p, ec);
+  }
+};
+
 }  // namespace
 
 std::string worldSidecarPath(const std::string& log_path) {
@@ -121,6 +149,51 @@ int runSimulate(const SimulateArgs& args) {
                                 : ((out.has_parent_path() ? out.parent_path() : fs::path(".")) /
                                    (out.stem().string() + "_preview"))
                                       .string();
+  const std::string sidecar = worldSidecarPath(args.output_path);
+  const std::string images_dir = ((out.has_parent_path() ? out.parent_path() : fs::path(".")) /
+                                  (out.stem().string() + "_Images"))
+                                     .string();
+  const std::vector<std::string> preview_files = {
+      "contact_sheet.png", "trajectory.csv", "world_outline.csv", "simulate.json"};
+
+  // Every output path is checked before anything is written: nothing an output would replace
+  // may be an input, and no output may be in the way of another kind of file.
+  {
+    std::vector<fs::path> inputs = {canonicalish(args.world_path)};
+    for (const sim::Shape& shape : world.shapes)
+      if (!shape.texture.resolved_path.empty())
+        inputs.push_back(canonicalish(shape.texture.resolved_path));
+    const std::vector<std::pair<std::string, std::string>> outputs = [&] {
+      std::vector<std::pair<std::string, std::string>> o = {{args.output_path, "the log (-o)"},
+                                                            {images_dir, "the log's image folder"},
+                                                            {sidecar, "the log's world copy"}};
+      for (const auto& f : preview_files)
+        o.push_back({(fs::path(preview_dir) / f).string(), "the preview (--preview-dir)"});
+      return o;
+    }();
+    for (const auto& [path, what] : outputs) {
+      const fs::path c = canonicalish(path);
+      for (const fs::path& in : inputs) {
+        if (within(in, c)) {
+          return fail("output '" + path + "' (" + what + ") would overwrite the input '" +
+                      in.string() + "'; choose another output path");
+        }
+      }
+    }
+    std::error_code ec;
+    if (fs::is_directory(args.output_path, ec))
+      return fail("output '" + args.output_path + "' is a folder; -o names the log file");
+    if (fs::is_directory(sidecar, ec))
+      return fail("cannot write '" + sidecar + "': it is a folder");
+    if (fs::exists(images_dir, ec) && !fs::is_directory(images_dir, ec))
+      return fail("cannot write image folder '" + images_dir + "': a file of that name exists");
+    if (fs::exists(preview_dir, ec) && !fs::is_directory(preview_dir, ec))
+      return fail("--preview-dir '" + preview_dir + "' is a file, not a folder");
+    for (const auto& f : preview_files) {
+      if (fs::is_directory(fs::path(preview_dir) / f, ec))
+        return fail("cannot write '" + (fs::path(preview_dir) / f).string() + "': it is a folder");
+    }
+  }
 
   const auto t_setup = std::chrono::steady_clock::now();
   std::unique_ptr<sim::Simulator> simulator;
@@ -188,45 +261,63 @@ int runSimulate(const SimulateArgs& args) {
   // folder it replaces) is not per-frame work.
   const double loop_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (Status st = writer->finish(); !st) return fail(st.message());
+  if (Status st = writer->close(); !st) return fail(st.message());
   const double fps = n / loop_s;
+
+  // Everything is staged under ".partial" names first and swapped in together at the end, so
+  // that a failure leaves the previous log, its images, world copy and preview as they were.
+  StagedCleanup staged;
+  std::vector<io::StagedMove> moves = writer->stagedMoves();
   // The world file travels with the log ("<stem>.world.yaml") so that `twocam run` can measure
   // its map against the world's geometry (phantom voxels) without being told where it came from.
+  // Texture paths are made absolute so that the copy reads the same from the log's folder.
   {
-    const std::string sidecar = worldSidecarPath(args.output_path);
     std::ifstream in(args.world_path, std::ios::binary);
     std::ostringstream text;
     text << in.rdbuf();
+    if (!in) return fail("cannot read '" + args.world_path + "'");
+    std::string self_contained;
+    if (Status st = sim::selfContainedWorldText(text.str(), world.base_dir, &self_contained); !st)
+      return fail("cannot copy the world file beside the log: " + st.message());
     const std::string tmp = sidecar + ".partial";
+    staged.paths.push_back(tmp);
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f << "# Copy of " << args.world_path << " written by twocam simulate beside "
-      << out.filename().string() << " (seed " << world.seed
-      << "); texture paths relative to the original file.\n"
-      << text.str();
+      << out.filename().string() << " (seed " << world.seed << "); texture paths made absolute.\n"
+      << self_contained;
     f.close();
-    std::error_code rename_ec;
-    if (!in || !f) return fail("cannot write '" + tmp + "'");
-    fs::rename(tmp, sidecar, rename_ec);
-    if (rename_ec) return fail("cannot write '" + sidecar + "': " + rename_ec.message());
+    if (!f) return fail("cannot write '" + tmp + "'");
+    moves.push_back({tmp, sidecar});
   }
 
   std::error_code ec;
   fs::create_directories(preview_dir, ec);
   if (ec) return fail("cannot create preview folder '" + preview_dir + "': " + ec.message());
-  if (Status st = io::writeContactSheet(sheet, preview_dir + "/contact_sheet.png"); !st)
+  const auto stage_preview = [&](const std::string& name) {
+    const std::string final_path = (fs::path(preview_dir) / name).string();
+    // The extension stays last: OpenCV picks the image format from it.
+    const std::string tmp = (fs::path(preview_dir) / (".partial_" + name)).string();
+    staged.paths.push_back(tmp);
+    moves.push_back({tmp, final_path});
+    return tmp;
+  };
+  if (Status st = io::writeContactSheet(sheet, stage_preview("contact_sheet.png")); !st)
     return fail(st.message());
   {
-    std::ofstream f(preview_dir + "/trajectory.csv");
+    const std::string path = stage_preview("trajectory.csv");
+    std::ofstream f(path);
     f << traj.str();
-    if (!f) return fail("cannot write '" + preview_dir + "/trajectory.csv'");
+    if (!f) return fail("cannot write '" + path + "'");
   }
   {
-    std::ofstream f(preview_dir + "/world_outline.csv");
+    const std::string path = stage_preview("world_outline.csv");
+    std::ofstream f(path);
     f << worldOutlineCsv(world);
-    if (!f) return fail("cannot write '" + preview_dir + "/world_outline.csv'");
+    if (!f) return fail("cannot write '" + path + "'");
   }
   {
-    std::ofstream f(preview_dir + "/simulate.json");
+    const std::string path = stage_preview("simulate.json");
+    std::ofstream f(path);
     f << "{\n  \"world\": \"" << world.name << "\",\n  \"world_file\": \"" << args.world_path
       << "\",\n  \"seed\": " << world.seed
       << ",\n  \"odometry_noise_scale\": " << args.odometry_noise_scale.value_or(1.0)
@@ -238,8 +329,11 @@ int runSimulate(const SimulateArgs& args) {
       << ",\n  \"simulate_ms_median\": " << median(sim_ms)
       << ",\n  \"write_ms_median\": " << median(write_ms)
       << ",\n  \"gt_depth_unresolved_pixels\": " << unresolved << "\n}\n";
-    if (!f) return fail("cannot write '" + preview_dir + "/simulate.json'");
+    if (!f) return fail("cannot write '" + path + "'");
   }
+  if (Status st = io::commitStaged(moves); !st) return fail(st.message());
+  staged.committed = true;
+  writer->release();
   std::printf("wrote %d stereo frames with odometry and ground truth to %s (images in %s)\n",
               n,
               args.output_path.c_str(),

@@ -15,6 +15,8 @@
 #include "frontend/salient_sad.h"
 
 namespace twocam::tools {
+namespace fs = std::filesystem;
+
 namespace {
 
 int fail(const std::string& message) {
@@ -50,6 +52,20 @@ int runStereoEval(const StereoEvalArgs& args) {
   if (args.border_px < 0) return fail("--border must be >= 0");
   if (Status s = checkWritable(args.output_json); !s) return fail(s.message());
   if (Status s = checkWritable(args.output_image); !s) return fail(s.message());
+  if (!args.output_image.empty()) {
+    // OpenCV picks the format from the extension and throws a multi-line exception for one it
+    // does not know; ask it first, before any work is done.
+    bool known = false;
+    try {
+      known = cv::haveImageWriter(args.output_image);
+    } catch (const cv::Exception&) {
+      known = false;
+    }
+    if (!known) {
+      return fail("--image " + args.output_image + ": unknown picture format '" +
+                  fs::path(args.output_image).extension().string() + "' (use .png)");
+    }
+  }
 
   ImageU8 left, right;
   if (Status s = frontend::loadGrey(args.left_path, &left); !s) return fail(s.message());
@@ -181,7 +197,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       if (!cv::imwrite(args.output_image, picture))
         return fail(args.output_image + ": cannot write the picture");
     } catch (const cv::Exception& e) {
-      return fail(args.output_image + ": cannot write the picture (" + e.what() + ")");
+      return fail(args.output_image + ": cannot write the picture (" + e.err + ")");
     }
   }
   return 0;

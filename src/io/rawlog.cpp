@@ -1,8 +1,10 @@
 #include "io/rawlog.h"
 
+#include <fcntl.h>
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/io/CStream.h>
 #include <mrpt/obs/CActionCollection.h>
 #include <mrpt/obs/CActionRobotMovement2D.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
@@ -15,18 +17,91 @@
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DQuat.h>
 #include <mrpt/serialization/CArchive.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <filesystem>
 #include <limits>
+#include <new>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace twocam::io {
+namespace {
+/// Largest single allocation while MRPT deserialises one object of a log, 0 = no limit. MRPT
+/// reads a length (string, vector, image) from the archive and allocates by it before reading
+/// the data, so one changed byte asked for gigabytes (zero-filled: all memory). 256 MiB is far
+/// above any real observation (a 4096 x 3072 colour image is 36 MiB).
+thread_local size_t g_allocation_cap_bytes = 0;
+constexpr size_t kMaxObjectAllocationBytes = size_t{256} << 20;
+
+/// Sets the cap for its lifetime.
+class AllocationCap {
+ public:
+  explicit AllocationCap(size_t bytes) : saved_(g_allocation_cap_bytes) {
+    g_allocation_cap_bytes = bytes;
+  }
+  ~AllocationCap() { g_allocation_cap_bytes = saved_; }
+  AllocationCap(const AllocationCap&) = delete;
+  AllocationCap& operator=(const AllocationCap&) = delete;
+
+ private:
+  size_t saved_;
+};
+}  // namespace
+}  // namespace twocam::io
+
+// The global operator new, replaced so that the cap above can refuse a request (the standard
+// allows a program to replace it). Without a cap it behaves as the default.
+void* operator new(std::size_t bytes) {
+  if (twocam::io::g_allocation_cap_bytes != 0 && bytes > twocam::io::g_allocation_cap_bytes)
+    throw std::bad_alloc();
+  void* p = std::malloc(bytes == 0 ? 1 : bytes);
+  while (p == nullptr) {
+    std::new_handler handler = std::get_new_handler();
+    if (handler == nullptr) throw std::bad_alloc();
+    handler();
+    p = std::malloc(bytes == 0 ? 1 : bytes);
+  }
+  return p;
+}
+void* operator new[](std::size_t bytes) { return operator new(bytes); }
+void* operator new(std::size_t bytes, const std::nothrow_t& /*tag*/) noexcept {
+  try {
+    return operator new(bytes);
+  } catch (const std::bad_alloc&) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t bytes, const std::nothrow_t& tag) noexcept {
+  return operator new(bytes, tag);
+}
+// The aligned forms stay the library's (their own allocate/free pair).
+// Matching deletes (std::free), also needed where a sanitizer supplies its own operators. GCC
+// cannot see that the operator new above allocates with std::malloc.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 namespace twocam::io {
 
@@ -93,6 +168,29 @@ Status writePng(const ImageU8& img, const std::string& path) {
     return Status::error("cannot write image " + path + ": " + e.what());
   }
   return Status::error("cannot write image " + path);
+}
+
+/// Reads an image with the C library's stderr (fd 2) silenced: libpng prints "libpng error:
+/// ..." there for a corrupt file before OpenCV returns an empty image, and TwoCam reports the
+/// failure in its own words instead. Process-wide while it runs (single-threaded callers).
+cv::Mat imreadQuietly(const std::string& path, int flags) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int null_fd = ::open("/dev/null", O_WRONLY);
+  if (saved >= 0 && null_fd >= 0) ::dup2(null_fd, 2);
+  cv::Mat img;
+  try {
+    img = cv::imread(path, flags);
+  } catch (const cv::Exception&) {
+    img = cv::Mat();
+  }
+  std::fflush(stderr);
+  if (saved >= 0) {
+    ::dup2(saved, 2);
+    ::close(saved);
+  }
+  if (null_fd >= 0) ::close(null_fd);
+  return img;
 }
 
 std::string frameName(const char* prefix, int index) {
@@ -163,7 +261,7 @@ Status RawlogWriter::open(const std::string& path,
 
 RawlogWriter::~RawlogWriter() {
   if (finished_) return;
-  if (impl_) impl_->stream.close();
+  if (impl_ && !closed_) impl_->stream.close();
   std::error_code ec;
   if (!partial_path_.empty()) fs::remove(partial_path_, ec);
   if (!partial_images_dir_.empty()) fs::remove_all(partial_images_dir_, ec);
@@ -256,8 +354,45 @@ Status RawlogWriter::write(const StereoFrame& stereo,
   return Status::ok();
 }
 
-Status RawlogWriter::finish() {
-  if (finished_) return Status::ok();
+Status commitStaged(const std::vector<StagedMove>& moves) {
+  std::error_code ec;
+  // Undo log: (from, to) renames done so far, replayed backwards on failure.
+  std::vector<std::pair<fs::path, fs::path>> done;
+  const auto rollback = [&] {
+    for (auto it = done.rbegin(); it != done.rend(); ++it) {
+      std::error_code ignored;
+      fs::rename(it->second, it->first, ignored);
+    }
+  };
+  std::vector<fs::path> aside;
+  for (const StagedMove& m : moves) {
+    const fs::path final_path(m.final_path);
+    if (!fs::exists(fs::symlink_status(final_path, ec))) continue;
+    const fs::path old = m.final_path + ".old";
+    fs::remove_all(old, ec);
+    fs::rename(final_path, old, ec);
+    if (ec) {
+      rollback();
+      return Status::error("cannot replace '" + m.final_path + "': " + ec.message());
+    }
+    done.emplace_back(final_path, old);
+    aside.push_back(old);
+  }
+  for (const StagedMove& m : moves) {
+    fs::rename(m.staged, m.final_path, ec);
+    if (ec) {
+      const std::string why = ec.message();
+      rollback();
+      return Status::error("cannot move '" + m.staged + "' to '" + m.final_path + "': " + why);
+    }
+    done.emplace_back(m.staged, m.final_path);
+  }
+  for (const fs::path& old : aside) fs::remove_all(old, ec);
+  return Status::ok();
+}
+
+Status RawlogWriter::close() {
+  if (finished_ || closed_) return Status::ok();
   try {
     auto arch = mrpt::serialization::archiveFrom(impl_->stream);
     mrpt::obs::CObservationComment end;
@@ -269,15 +404,18 @@ Status RawlogWriter::finish() {
     return Status::error("cannot write '" + partial_path_ + "': " + e.what());
   }
   impl_->stream.close();
-  std::error_code ec;
-  fs::remove_all(images_dir_, ec);
-  fs::rename(partial_images_dir_, images_dir_, ec);
-  if (ec)
-    return Status::error("cannot move '" + partial_images_dir_ + "' to '" + images_dir_ +
-                         "': " + ec.message());
-  fs::rename(partial_path_, path_, ec);
-  if (ec)
-    return Status::error("cannot move '" + partial_path_ + "' to '" + path_ + "': " + ec.message());
+  closed_ = true;
+  return Status::ok();
+}
+
+std::vector<StagedMove> RawlogWriter::stagedMoves() const {
+  return {{partial_images_dir_, images_dir_}, {partial_path_, path_}};
+}
+
+Status RawlogWriter::finish() {
+  if (finished_) return Status::ok();
+  if (Status st = close(); !st) return st;
+  if (Status st = commitStaged(stagedMoves()); !st) return st;
   finished_ = true;
   return Status::ok();
 }
@@ -285,8 +423,101 @@ Status RawlogWriter::finish() {
 // ---------------------------------------------------------------------------------------------
 // Reader
 
+namespace {
+
+/// A read-only stream over another with look-ahead: peek() reads bytes ahead without consuming
+/// them, so that sizes can be checked before MRPT's deserialisers allocate by them.
+class PeekableStream : public mrpt::io::CStream {
+ public:
+  explicit PeekableStream(mrpt::io::CStream& source) : source_(source) {}
+
+  size_t Read(void* buffer, size_t count) override {
+    auto* out = static_cast<uint8_t*>(buffer);
+    const size_t from_ahead = std::min(count, ahead_.size() - ahead_pos_);
+    std::memcpy(out, ahead_.data() + ahead_pos_, from_ahead);
+    ahead_pos_ += from_ahead;
+    if (ahead_pos_ == ahead_.size()) {
+      ahead_.clear();
+      ahead_pos_ = 0;
+    }
+    size_t n = from_ahead;
+    if (n < count) n += source_.Read(out + n, count - n);
+    position_ += n;
+    return n;
+  }
+  size_t Write(const void* /*buffer*/, size_t /*count*/) override { return 0; }
+  uint64_t Seek(int64_t /*offset*/, TSeekOrigin /*origin*/) override {
+    throw std::runtime_error("rawlog reader: seek not supported");
+  }
+  uint64_t getTotalBytesCount() const override { return source_.getTotalBytesCount(); }
+  uint64_t getPosition() const override { return position_; }
+
+  /// The next `count` bytes (fewer at the end of the stream), left unread.
+  std::string peek(size_t count) {
+    const size_t have = ahead_.size() - ahead_pos_;
+    if (have < count) {
+      std::string more(count - have, '\0');
+      more.resize(source_.Read(more.data(), more.size()));
+      ahead_.append(more);
+    }
+    return ahead_.substr(ahead_pos_, count);
+  }
+
+ private:
+  mrpt::io::CStream& source_;
+  std::string ahead_;
+  size_t ahead_pos_ = 0;
+  uint64_t position_ = 0;
+};
+
+/// A size in the log that the log itself does not allow: an error of the frame being read.
+class BadSizeError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Largest image a log may declare before the stereo rig is known, or in logs not written by
+/// TwoCam [px per side]; TwoCam's own depth images have the rig's size.
+constexpr uint32_t kMaxForeignImageSidePx = 16384;
+constexpr uint64_t kMaxForeignImagePixels = uint64_t{1} << 26;  // 64 Mpx, 128 MB of uint16
+
+/// MRPT 2.5's serialisation of CObservation3DRangeScan (version 10) up to the range image size,
+/// as TwoCam's writer produces it (no 3-D points):
+///   0xa2 "mrpt::obs::CObservation3DRangeScan" 0x0a | float maxRange |
+///   0x94 "mrpt::poses::CPose3D" 0x03 12 x double 0x88 | bool hasPoints3D = 0 |
+///   bool hasRangeImage = 1 | float rangeUnits | uint32 rows | uint32 cols | rows x cols x uint16
+/// Returns the (rows, cols) such an object declares, or nullopt if the next object is anything
+/// else (other classes and layouts are left to MRPT).
+std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& stream) {
+  static const std::string kClass = "mrpt::obs::CObservation3DRangeScan";
+  static const std::string kPose = "mrpt::poses::CPose3D";
+  const size_t pose_at = 1 + kClass.size() + 1 + 4;
+  const size_t after_pose = pose_at + 1 + kPose.size() + 1 + 12 * 8 + 1;
+  const size_t size_at = after_pose + 2 + 4;
+  const std::string b = stream.peek(size_at + 8);
+  if (b.size() < size_at + 8) return std::nullopt;
+  const auto byte = [&](size_t i) { return static_cast<uint8_t>(b[i]); };
+  if (byte(0) != (0x80 | kClass.size()) || b.compare(1, kClass.size(), kClass) != 0 ||
+      byte(1 + kClass.size()) != 10) {
+    return std::nullopt;
+  }
+  if (byte(pose_at) != (0x80 | kPose.size()) || b.compare(pose_at + 1, kPose.size(), kPose) != 0 ||
+      byte(after_pose - 1) != 0x88) {
+    return std::nullopt;
+  }
+  if (byte(after_pose) != 0 || byte(after_pose + 1) != 1) return std::nullopt;
+  uint32_t rows = 0;
+  uint32_t cols = 0;
+  std::memcpy(&rows, b.data() + size_at, 4);  // MRPT archives are little-endian
+  std::memcpy(&cols, b.data() + size_at + 4, 4);
+  return std::make_pair(rows, cols);
+}
+
+}  // namespace
+
 struct RawlogReader::Impl {
   mrpt::io::CFileGZInputStream stream;
+  PeekableStream peekable{stream};
   std::string path;
   std::string images_dir;
   bool is_twocam = false;
@@ -305,18 +536,52 @@ struct RawlogReader::Impl {
   /// it): the frame is delivered and the error reported by the following next().
   std::optional<std::string> deferred_error;
 
+  /// Image size of the log's stereo rig once known (0 before).
+  int rig_width_px = 0;
+  int rig_height_px = 0;
+
+  /// Refuses a depth image whose declared size the log does not allow, before MRPT allocates
+  /// it (MRPT 2.5's aligned allocator returns null for a huge request and the resize then
+  /// writes through it: a one-byte change of the size field crashed `twocam run`).
+  void checkNextObjectSizes() {
+    const auto size = peekRangeImageSize(peekable);
+    if (!size) return;
+    const auto [rows, cols] = *size;
+    std::ostringstream os;
+    if (is_twocam && rig_width_px > 0) {
+      if (rows == static_cast<uint32_t>(rig_height_px) &&
+          cols == static_cast<uint32_t>(rig_width_px))
+        return;
+      os << "depth image declares " << cols << "x" << rows << " pixels; the log's rig is "
+         << rig_width_px << "x" << rig_height_px << " (corrupt log)";
+    } else {
+      if (rows <= kMaxForeignImageSidePx && cols <= kMaxForeignImageSidePx &&
+          uint64_t{rows} * cols <= kMaxForeignImagePixels)
+        return;
+      os << "depth image declares " << cols << "x" << rows << " pixels, above the limit of "
+         << kMaxForeignImageSidePx << " per side and " << kMaxForeignImagePixels
+         << " in all (corrupt log)";
+    }
+    throw BadSizeError(os.str());
+  }
+
   /// Reads the next observation (flattening sensory frames and odometry actions).
   /// Returns nullptr at the end; throws on corrupt data.
   mrpt::obs::CObservation::Ptr read() {
     while (pending.empty()) {
       if (eof) return nullptr;
       mrpt::serialization::CSerializable::Ptr obj;
+      checkNextObjectSizes();
       try {
-        auto arch = mrpt::serialization::archiveFrom(stream);
+        const AllocationCap cap(kMaxObjectAllocationBytes);
+        auto arch = mrpt::serialization::archiveFrom(peekable);
         obj = arch.ReadObject();
       } catch (const mrpt::serialization::CExceptionEOF&) {
         eof = true;
         return nullptr;
+      } catch (const std::bad_alloc&) {
+        throw BadSizeError("an object declares a size above " +
+                           std::to_string(kMaxObjectAllocationBytes >> 20) + " MiB (corrupt log)");
       }
       if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj)) {
         if (auto c = std::dynamic_pointer_cast<mrpt::obs::CObservationComment>(obs)) {
@@ -368,7 +633,7 @@ struct RawlogReader::Impl {
       std::error_code ec;
       if (!fs::is_regular_file(file, ec))
         return Status::error(std::string(side) + " image file '" + file + "' is missing");
-      grey = cv::imread(file, cv::IMREAD_GRAYSCALE);
+      grey = imreadQuietly(file, cv::IMREAD_GRAYSCALE);
       if (grey.empty())
         return Status::error("cannot read " + std::string(side) + " image file '" + file + "'");
     } else {
@@ -468,6 +733,42 @@ bool sameCalibration(const StereoRig& a, const StereoRig& b) {
 }
 }  // namespace
 
+namespace {
+/// Odometry and ground truth must be finite numbers within kMaxLogCoordinateM: the maths
+/// downstream (voxel keys, distinct-point counts) converts coordinates to integers.
+Status checkFinite(const LogFrame& frame) {
+  const auto bad = [](double v) { return !std::isfinite(v) || std::abs(v) > kMaxLogCoordinateM; };
+  std::ostringstream os;
+  os.precision(17);
+  if (frame.odometry) {
+    const Pose2& p = frame.odometry->pose;
+    if (bad(p.x_m) || bad(p.y_m) || !std::isfinite(p.yaw_rad)) {
+      os << "odometry pose (" << p.x_m << ", " << p.y_m << ", " << p.yaw_rad
+         << ") is not finite or beyond " << kMaxLogCoordinateM << " m";
+      return Status::error(os.str());
+    }
+  }
+  if (frame.ground_truth) {
+    const Eigen::Matrix4d& M = frame.ground_truth->T_w_b.matrix();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) {
+        if (!std::isfinite(M(r, c)) || (c == 3 && bad(M(r, c)))) {
+          os << "ground-truth pose has a non-finite entry or a translation beyond "
+             << kMaxLogCoordinateM << " m (" << M(0, 3) << ", " << M(1, 3) << ", " << M(2, 3)
+             << ")";
+          return Status::error(os.str());
+        }
+      }
+    const ImageF32& d = frame.ground_truth->depth_left;
+    for (float v : d.data) {
+      if (!std::isfinite(v))
+        return Status::error("ground-truth depth image has a non-finite value");
+    }
+  }
+  return Status::ok();
+}
+}  // namespace
+
 Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>* out) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
@@ -490,6 +791,8 @@ Status RawlogReader::open(const std::string& path, std::unique_ptr<RawlogReader>
         if (Status st = checkRectified(*s); !st)
           return Status::error("log '" + path + "': " + st.message());
         r->rig_ = rigFromObservation(*s);
+        r->impl_->rig_width_px = r->rig_.width_px;
+        r->impl_->rig_height_px = r->rig_.height_px;
         r->impl_->stereo_label = s->sensorLabel;
         r->impl_->rig_known = true;
         break;
@@ -575,6 +878,8 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       mrpt::obs::CObservation::Ptr o;
       try {
         o = impl_->read();
+      } catch (const BadSizeError&) {
+        throw;  // the frame's own depth image: this frame fails
       } catch (const std::exception& e) {
         impl_->deferred_error = "corrupt or truncated log: " + shortWhat(e);
         break;
@@ -609,6 +914,11 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
     impl_->eof = true;
     impl_->pending.clear();
     return fail("corrupt or truncated log: " + shortWhat(e));
+  }
+  if (Status st = checkFinite(*frame); !st) {
+    impl_->eof = true;
+    impl_->pending.clear();
+    return fail(st.message());
   }
   ++index_;
   return true;

@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/frames.h"
 #include "common/rig.h"
@@ -27,6 +28,18 @@ inline constexpr const char* kStereoLabel = "STEREO";
 inline constexpr const char* kOdometryLabel = "ODOMETRY";
 inline constexpr const char* kGtPoseLabel = "GT_POSE";
 inline constexpr const char* kGtDepthLabel = "GT_DEPTH";
+
+/// A staged output file or folder and the path it replaces.
+struct StagedMove {
+  std::string staged;
+  std::string final_path;
+};
+
+/// Moves every staged path onto its final path, all or nothing: existing finals are first
+/// renamed aside ("<final>.old"), then the staged paths renamed in; on any failure the moves
+/// done so far are undone and the Status names the path. The set-aside copies are removed at
+/// the end. Renames only: staged and final paths must be on one file system (same folder).
+Status commitStaged(const std::vector<StagedMove>& moves);
 
 struct RawlogWriterOptions {
   /// zlib level of the rawlog stream, 0 (none) to 9; 1 is fast and shrinks depth images ~3x.
@@ -61,8 +74,17 @@ class RawlogWriter {
                const OdometrySample* odometry,
                const GroundTruthFrame* ground_truth);
 
-  /// Closes the stream and moves the log and its image folder into place.
+  /// Closes the stream and moves the log and its image folder into place (close() then
+  /// commitStaged(stagedMoves()), all or nothing).
   Status finish();
+
+  /// Writes the end marker and closes the stream; the output stays staged (partial names), so
+  /// that a caller can swap it in together with its own files.
+  Status close();
+  /// The (staged, final) paths close() leaves for commitStaged: image folder, then log.
+  std::vector<StagedMove> stagedMoves() const;
+  /// After the caller committed stagedMoves(): the writer no longer removes them.
+  void release() { finished_ = true; }
 
   int framesWritten() const { return frames_; }
   /// Folder the external images end up in ("<stem>_Images").
@@ -78,11 +100,16 @@ class RawlogWriter {
   int frames_ = 0;
   int64_t last_t_ns_ = 0;
   bool finished_ = false;
+  bool closed_ = false;
 };
 
 /// Folder of a rawlog's external images: "<dir>/<stem>_Images" (or _images, _IMAGES) when it
 /// exists, else "<dir>/Images" (MRPT's convention).
 std::string imagesDirectoryFor(const std::string& rawlog_path);
+
+/// Largest coordinate a log's odometry or ground-truth translation may have [m]; a frame with a
+/// larger, NaN or infinite pose (or a non-finite ground-truth depth) is an error naming it.
+inline constexpr double kMaxLogCoordinateM = 1e6;
 
 /// One frame read from a log.
 struct LogFrame {

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "common/options_check.h"
+
 namespace twocam::mapping {
 namespace {
 
@@ -22,6 +24,20 @@ Status MappingOptions::validate() const {
   }
   if (!(std::isfinite(max_range_m) && max_range_m > 0.0)) {
     return bad("max_range_m", max_range_m, "> 0 [m]");
+  }
+  // Bounds the map can honour in memory and time (measured on office_n1: 0.05 m 150 MB 38 s,
+  // 0.02 m 285 MB 20 s, 0.01 m 1.2 GB 43 s; 0.001 m exhausted memory).
+  if (Status s =
+          checkRange("mapping.resolution_m", resolution_m, kMinResolutionM, kMaxResolutionM, "m");
+      !s) {
+    return s;
+  }
+  if (Status s = checkRange("mapping.max_range_m", max_range_m, 0.0, kMaxRangeM, "m"); !s) return s;
+  if (!(max_range_m <= kMaxRayVoxels * resolution_m)) {
+    std::ostringstream msg;
+    msg << "mapping.max_range_m = " << max_range_m << "; must be <= " << kMaxRayVoxels
+        << " * resolution_m = " << kMaxRayVoxels * resolution_m << " [m] (voxels carved per ray)";
+    return Status::error(msg.str());
   }
   // OctoMap keys have 16 bits per axis: the tree spans +-resolution_m * 2^15 around the origin.
   const double tree_half_extent_m = resolution_m * 32768.0;

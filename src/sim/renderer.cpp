@@ -14,6 +14,8 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "yaml/yaml_text.h"
+
 namespace twocam::sim {
 
 namespace {
@@ -151,8 +153,10 @@ Status StereoRenderer::create(const World& world,
                                            static_cast<unsigned>(world.rig.height_px));
     impl->fbo = std::make_unique<mrpt::opengl::CFBORender>(p);
   } catch (const std::exception& e) {
-    return Status::error(std::string("cannot create an offscreen EGL rendering context: ") +
-                         e.what());
+    // MRPT's exception text holds banners and a call stack: its "Message:" line is the news.
+    return Status::error(std::string("cannot create an offscreen EGL rendering context for a ") +
+                         std::to_string(world.rig.width_px) + "x" +
+                         std::to_string(world.rig.height_px) + " rig: " + yaml::mrptMessage(e));
   }
   impl->scene = mrpt::opengl::COpenGLScene::Create();
   const float bg = static_cast<float>(world.background_grey / 255.0);

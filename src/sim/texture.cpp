@@ -1,15 +1,43 @@
 #include "sim/texture.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <string>
 
 namespace twocam::sim {
 
 namespace {
+
+/// Reads an image with the C library's stderr (fd 2) silenced: libpng prints "libpng error:
+/// ..." there for a corrupt file before OpenCV returns an empty image, and TwoCam reports the
+/// failure in its own words instead. Process-wide while it runs (single-threaded callers).
+cv::Mat imreadQuietly(const std::string& path, int flags) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int null_fd = ::open("/dev/null", O_WRONLY);
+  if (saved >= 0 && null_fd >= 0) ::dup2(null_fd, 2);
+  cv::Mat img;
+  try {
+    img = cv::imread(path, flags);
+  } catch (const cv::Exception&) {
+    img = cv::Mat();
+  }
+  std::fflush(stderr);
+  if (saved >= 0) {
+    ::dup2(saved, 2);
+    ::close(saved);
+  }
+  if (null_fd >= 0) ::close(null_fd);
+  return img;
+}
 
 /// Blobs: coarse random grid cell as a fraction of scale_m. Cubic interpolation of i.i.d.
 /// values crosses the mean on average every 2 cells, so blobs are about scale_m across.
@@ -186,7 +214,7 @@ void rasterizeGradient(const TextureSpec& spec, const TexelGrid& g, ImageU8* out
 
 Status rasterizeImage(const TextureSpec& spec, const TexelGrid& g, ImageU8* out) {
   const std::string& path = spec.resolved_path.empty() ? spec.file : spec.resolved_path;
-  cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  cv::Mat img = imreadQuietly(path, cv::IMREAD_GRAYSCALE);
   if (img.empty()) {
     return Status::error("texture image '" + path + "' (file '" + spec.file +
                          "') cannot be read as an image");

@@ -1,8 +1,11 @@
 #include "sim/world.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <sstream>
+
+#include "sim/texture.h"
 
 namespace twocam::sim {
 
@@ -74,16 +77,22 @@ class Checker {
 };
 
 void checkRig(const StereoRig& rig, Checker* c) {
-  c->require(rig.width_px >= 16,
-             "rig.width_px = " + std::to_string(rig.width_px) + ": must be >= 16");
-  c->require(rig.height_px >= 16,
-             "rig.height_px = " + std::to_string(rig.height_px) + ": must be >= 16");
+  c->require(rig.width_px >= 16 && rig.width_px <= kMaxRigSidePx,
+             "rig.width_px = " + std::to_string(rig.width_px) + ": must be in [16, " +
+                 std::to_string(kMaxRigSidePx) + "]");
+  c->require(rig.height_px >= 16 && rig.height_px <= kMaxRigSidePx,
+             "rig.height_px = " + std::to_string(rig.height_px) + ": must be in [16, " +
+                 std::to_string(kMaxRigSidePx) + "]");
   c->positive("rig.fx_px", rig.fx_px);
   c->positive("rig.fy_px", rig.fy_px);
   c->finite("rig.cx_px", rig.cx_px);
   c->finite("rig.cy_px", rig.cy_px);
   c->positive("rig.baseline_m", rig.baseline_m);
   c->require(rig.T_b_cl.matrix().allFinite(), "rig.mount: pose is not finite");
+  const Eigen::Vector3d& t = rig.T_b_cl.translation();
+  c->closed("rig.mount.x_m", t.x(), -kMaxMountOffsetM, kMaxMountOffsetM);
+  c->closed("rig.mount.y_m", t.y(), -kMaxMountOffsetM, kMaxMountOffsetM);
+  c->closed("rig.mount.height_m", t.z(), -kMaxMountOffsetM, kMaxMountOffsetM);
   if (c->failed()) return;
   // Backstop for constraints the rig itself adds later.
   if (const Status s = rig.validate(); !s) c->require(false, s.message());
@@ -182,6 +191,53 @@ void checkShape(const Shape& shape, size_t i, Checker* c) {
 
 }  // namespace
 
+namespace {
+int nextPow2(long x) {
+  int p = 1;
+  while (p < x && p < (1 << 30)) p <<= 1;
+  return p;
+}
+/// Texels of one face's texture as the renderer holds it: the rasterised grid
+/// (texture.cpp's makeGrid) padded to power-of-two sides (renderer.cpp).
+double faceTexels(const TextureSpec& t, double width_m, double height_m) {
+  if (!(width_m > 0.0) || !(height_m > 0.0) || !(t.texels_per_m > 0.0)) return 0.0;
+  const double tpm = std::min(t.texels_per_m, kMaxTextureSidePx / std::max(width_m, height_m));
+  const auto side = [tpm](double len_m) {
+    return nextPow2(std::clamp(std::lround(len_m * tpm), 2L, long{kMaxTextureSidePx}));
+  };
+  return static_cast<double>(side(width_m)) * side(height_m);
+}
+}  // namespace
+
+int textureCount(const World& world) {
+  int n = 0;
+  for (const Shape& s : world.shapes) {
+    n += s.kind == ShapeKind::kPlane ? 1 : s.kind == ShapeKind::kBox ? 6 : 3;
+  }
+  return n;
+}
+
+double textureTexels(const World& world) {
+  double total = 0.0;
+  for (const Shape& s : world.shapes) {
+    const Eigen::Vector3d& d = s.size_m;
+    switch (s.kind) {
+      case ShapeKind::kPlane:
+        total += faceTexels(s.texture, d.x(), d.y());
+        break;
+      case ShapeKind::kBox:
+        total += 2.0 * (faceTexels(s.texture, d.y(), d.z()) + faceTexels(s.texture, d.x(), d.z()) +
+                        faceTexels(s.texture, d.x(), d.y()));
+        break;
+      case ShapeKind::kCylinder:
+        total += faceTexels(s.texture, 2.0 * M_PI * d.x(), d.z()) +
+                 2.0 * faceTexels(s.texture, 2.0 * d.x(), 2.0 * d.x());
+        break;
+    }
+  }
+  return total;
+}
+
 Status World::validate() const {
   Checker c;
   c.require(frames >= 1, "frames = " + std::to_string(frames) + ": must be >= 1");
@@ -190,7 +246,28 @@ Status World::validate() const {
   checkRobot(robot, &c);
   checkNoise(image_noise, odometry_noise, &c);
   c.require(!shapes.empty(), "shapes: the world needs at least one shape");
+  c.require(shapes.size() <= kMaxShapes,
+            "shapes: " + std::to_string(shapes.size()) + " shapes; at most " +
+                std::to_string(kMaxShapes));
   for (size_t i = 0; i < shapes.size() && !c.failed(); ++i) checkShape(shapes[i], i, &c);
+  if (!c.failed()) {
+    const int textures = textureCount(*this);
+    c.require(textures <= kMaxTextures,
+              "shapes: " + std::to_string(textures) +
+                  " textured surfaces (plane 1, box 6, cylinder 3); the renderer holds at most " +
+                  std::to_string(kMaxTextures) + " (MRPT's limit of simultaneous textures)");
+  }
+  if (!c.failed()) {
+    const double texels = textureTexels(*this);
+    if (texels > kMaxWorldTexels) {
+      std::ostringstream os;
+      os << "shapes: the textures need " << texels / (1 << 20) << " M texels; at most "
+         << kMaxWorldTexels / (1 << 20)
+         << " M (~8 bytes each in the renderer): lower texels_per_m or use fewer or smaller "
+            "shapes";
+      c.require(false, os.str());
+    }
+  }
   return c.status();
 }
 

@@ -146,4 +146,25 @@ struct World {
 /// Axis-aligned bounding box of all shapes in the world frame [m].
 Eigen::AlignedBox3d worldBounds(const World& world);
 
+/// Limits World::validate() enforces so that a valid world can be simulated in bounded memory
+/// and time (worlds/README.md):
+/// Largest image side [px]: the offscreen renderer's framebuffer (EGL/Mesa allow 8192-16384;
+/// 4096 leaves room and is 3x the largest shipped rig).
+inline constexpr int kMaxRigSidePx = 4096;
+/// Largest |x|, |y|, |height| of the camera mount from the body origin [m].
+inline constexpr double kMaxMountOffsetM = 10.0;
+/// Most shapes in a world (each one is a draw call and a texture).
+inline constexpr size_t kMaxShapes = 1000;
+/// Most textured surfaces (plane 1, box 6, cylinder 3): MRPT 2.5 holds at most 192 OpenGL
+/// textures at once and warns once per surface and frame beyond that.
+inline constexpr int kMaxTextures = 192;
+/// Textured surfaces of the world's shapes (the quantity kMaxTextures bounds).
+int textureCount(const World& world);
+/// Most texture texels in a world, counted as the renderer holds them (power-of-two sides),
+/// ~8 bytes each across the rasterised, padded and GPU copies: 2^27 texels ~ 1 GiB.
+inline constexpr double kMaxWorldTexels = 134217728.0;
+
+/// Texels the world's textures take in the renderer (the quantity kMaxWorldTexels bounds).
+double textureTexels(const World& world);
+
 }  // namespace twocam::sim

@@ -567,6 +567,64 @@ Status parseWorld(const std::string& yaml_text, const std::string& base_dir, Wor
   return parseImpl(yaml_text, base_dir, "(YAML text)", world);
 }
 
+Status selfContainedWorldText(const std::string& yaml_text,
+                              const std::string& base_dir,
+                              std::string* out) {
+  World check;
+  if (Status st = parseWorld(yaml_text, base_dir, &check); !st) return st;
+  Yaml doc;
+  if (const auto error = parseYaml(yaml_text, &doc)) return Status::error(*error);
+  // (position, length, replacement) of each relative texture file scalar.
+  struct Edit {
+    size_t pos, length;
+    std::string text;
+  };
+  std::vector<Edit> edits;
+  const Node& root = doc.node();
+  const Node* shapes = nullptr;
+  for (const auto& [k, v] : root.asMap())
+    if (k.as<std::string>() == "shapes") shapes = &v;
+  if (shapes != nullptr && shapes->isSequence()) {
+    for (const Node& shape : shapes->asSequence()) {
+      if (!shape.isMap()) continue;
+      for (const auto& [k, texture] : shape.asMap()) {
+        if (k.as<std::string>() != "texture" || !texture.isMap()) continue;
+        for (const auto& [tk, file] : texture.asMap()) {
+          if (tk.as<std::string>() != "file" || !file.isScalar()) continue;
+          const std::string value = file.as<std::string>();
+          if (fs::path(value).is_absolute()) continue;
+          const size_t pos = file.marks.input_pos;
+          size_t length = 0;
+          if (pos < yaml_text.size() && (yaml_text[pos] == '\'' || yaml_text[pos] == '"')) {
+            const size_t close = yaml_text.find(yaml_text[pos], pos + 1);
+            if (close == std::string::npos) return Status::error("unterminated quote");
+            length = close + 1 - pos;
+          } else if (yaml_text.compare(pos, value.size(), value) == 0) {
+            length = value.size();
+          } else {
+            return Status::error("cannot locate texture file '" + value + "'" + lineOf(file));
+          }
+          std::string quoted = "'";
+          for (char c : (fs::path(base_dir) / value).lexically_normal().string()) {
+            quoted += c;
+            if (c == '\'') quoted += c;
+          }
+          edits.push_back({pos, length, quoted + "'"});
+        }
+      }
+    }
+  }
+  std::sort(edits.begin(), edits.end(), [](const Edit& a, const Edit& b) { return a.pos > b.pos; });
+  std::string text = yaml_text;
+  for (const Edit& e : edits) text.replace(e.pos, e.length, e.text);
+  // The copy must describe the same world from anywhere.
+  World copy;
+  if (Status st = parseWorld(text, "/nonexistent-folder", &copy); !st)
+    return Status::error("texture paths could not be made absolute: " + st.message());
+  *out = std::move(text);
+  return Status::ok();
+}
+
 Status loadWorld(const std::string& path, World* world) {
   std::error_code ec;
   const fs::path file(path);

@@ -16,4 +16,11 @@ Status loadWorld(const std::string& path, World* world);
 /// Same from YAML text; base_dir resolves relative paths.
 Status parseWorld(const std::string& yaml_text, const std::string& base_dir, World* world);
 
+/// The world file's text with every relative texture `file:` made absolute (resolved against
+/// base_dir), so that the copy reads the same from any folder (the `<log>.world.yaml` sidecar
+/// written beside a log). Comments and layout are kept. Fails if the text does not parse.
+Status selfContainedWorldText(const std::string& yaml_text,
+                              const std::string& base_dir,
+                              std::string* out);
+
 }  // namespace twocam::sim

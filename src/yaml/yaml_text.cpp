@@ -69,7 +69,81 @@ std::string syntaxError(const std::string& diagnostics) {
   return {};
 }
 
+/// "line L, column C: " for the byte at `at` of `text` (columns count bytes, from 1).
+std::string position(const std::string& text, size_t at) {
+  size_t line = 1;
+  size_t line_start = 0;
+  for (size_t i = 0; i < at; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      line_start = i + 1;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(at - line_start + 1) + ": ";
+}
+
+std::string hexByte(unsigned char c) {
+  char buf[8];
+  std::snprintf(buf, sizeof(buf), "0x%02x", static_cast<unsigned>(c));
+  return buf;
+}
+
+/// Length of the well-formed UTF-8 sequence at text[at] (RFC 3629: no overlong forms, no
+/// surrogates, nothing above U+10FFFF), or 0 if it is not one.
+size_t utf8Length(const std::string& text, size_t at) {
+  const auto byte = [&](size_t i) { return static_cast<unsigned char>(text[i]); };
+  const unsigned char c = byte(at);
+  if (c < 0x80) return 1;
+  size_t n = 0;
+  unsigned char lo = 0x80;
+  unsigned char hi = 0xbf;
+  if (c >= 0xc2 && c <= 0xdf) {
+    n = 2;
+  } else if (c >= 0xe0 && c <= 0xef) {
+    n = 3;
+    if (c == 0xe0) lo = 0xa0;
+    if (c == 0xed) hi = 0x9f;
+  } else if (c >= 0xf0 && c <= 0xf4) {
+    n = 4;
+    if (c == 0xf0) lo = 0x90;
+    if (c == 0xf4) hi = 0x8f;
+  } else {
+    return 0;
+  }
+  if (at + n > text.size()) return 0;
+  if (byte(at + 1) < lo || byte(at + 1) > hi) return 0;
+  for (size_t i = 2; i < n; ++i) {
+    if (byte(at + i) < 0x80 || byte(at + i) > 0xbf) return 0;
+  }
+  return n;
+}
+
 }  // namespace
+
+std::optional<std::string> checkYamlText(const std::string& text) {
+  bool line_start = true;
+  for (size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (line_start && c == '%') {
+      return position(text, i) + "YAML directives ('%...') are not supported; remove the line";
+    }
+    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r') {
+      return position(text, i) + "control character " + hexByte(c) +
+             " (only tab, line feed and carriage return are allowed)";
+    }
+    if (c == 0x7f) return position(text, i) + "control character 0x7f";
+    const size_t n = utf8Length(text, i);
+    if (n == 0) {
+      return position(text, i) + "byte " + hexByte(c) +
+             " is not valid UTF-8 (the file must be UTF-8 text)";
+    }
+    // A byte order mark at the start of the file does not end the line start.
+    const bool bom = i == 0 && n == 3 && text.compare(0, 3, "\xef\xbb\xbf") == 0;
+    line_start = c == '\n' || (bom && line_start);
+    i += n;
+  }
+  return std::nullopt;
+}
 
 std::string mrptMessage(const std::exception& e) {
   std::string s = e.what();
@@ -88,6 +162,10 @@ std::string mrptMessage(const std::exception& e) {
 }
 
 std::optional<std::string> parseYaml(const std::string& text, mrpt::containers::yaml* doc) {
+  // libfyaml (under MRPT 2.5) loops forever on some invalid UTF-8 (e.g. the two bytes "%\xff":
+  // its directive scanner does not advance past a byte its decoder rejects). Only text that
+  // passed the check reaches it.
+  if (auto bad = checkYamlText(text)) return bad;
   std::string exception_message;
   StderrCapture capture;
   try {

@@ -13,7 +13,15 @@
 
 namespace twocam::yaml {
 
-/// Parses `text` into *doc. Returns nullopt on success, else the reason, e.g.
+/// Checks what the parser may see: well-formed UTF-8 (RFC 3629), no control characters other
+/// than tab, line feed and carriage return, no YAML directive lines ("%YAML", "%TAG"; TwoCam's
+/// files need none). Returns nullopt when fine, else "line L, column C: <reason>".
+/// This is the guard that makes parseYaml terminate: libfyaml's scanners advance by decoded
+/// UTF-8 characters and spin on a byte they cannot decode (fuzzing found 15 such inputs, all
+/// a directive followed by invalid UTF-8), so no such byte and no directive reaches them.
+std::optional<std::string> checkYamlText(const std::string& text);
+
+/// Parses `text` into *doc (after checkYamlText). Returns nullopt on success, else the reason, e.g.
 /// "line 2, column 1: flow sequence without a closing bracket".
 ///
 /// MRPT 2.5 hands libfyaml's syntax errors to C's stderr and returns the tree parsed up to the

@@ -1,13 +1,17 @@
 #include "io/rawlog.h"
 
 #include <gtest/gtest.h>
+#include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationStereoImages.h>
 #include <mrpt/obs/CRawlog.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <random>
 
 #include "support/test_paths.h"
@@ -224,6 +228,167 @@ TEST(Rawlog, MissingCorruptAndTruncatedLogsAreErrors) {
   while (r->next(&frame, &rs)) ++n;
   EXPECT_LT(n, 6);
   EXPECT_FALSE(rs.isOk()) << "a truncated log must not end cleanly";
+}
+
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+TEST(Rawlog, CommitStagedIsAllOrNothing) {
+  const std::string dir = test::makeTempDir("commit_staged");
+  const auto write = [](const std::string& path, const std::string& text) {
+    std::ofstream(path) << text;
+  };
+  const auto read = [](const std::string& path) {
+    std::ifstream f(path);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+  };
+  write(dir + "/a", "old a");
+  write(dir + "/a.partial", "new a");
+  write(dir + "/b", "old b");
+  // The second staged file is missing: nothing may change.
+  const Status st =
+      commitStaged({{dir + "/a.partial", dir + "/a"}, {dir + "/b.partial", dir + "/b"}});
+  EXPECT_FALSE(st.isOk());
+  EXPECT_NE(st.message().find(dir + "/b.partial"), std::string::npos) << st.message();
+  EXPECT_EQ(read(dir + "/a"), "old a");
+  EXPECT_EQ(read(dir + "/a.partial"), "new a");
+  EXPECT_EQ(read(dir + "/b"), "old b");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/a.old"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/b.old"));
+
+  write(dir + "/b.partial", "new b");
+  ASSERT_TRUE(
+      commitStaged({{dir + "/a.partial", dir + "/a"}, {dir + "/b.partial", dir + "/b"}}).isOk());
+  EXPECT_EQ(read(dir + "/a"), "new a");
+  EXPECT_EQ(read(dir + "/b"), "new b");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/a.old"));
+}
+
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+/// The decompressed bytes of a (gzip) rawlog.
+std::string decompressed(const std::string& path) {
+  mrpt::io::CFileGZInputStream in(path);
+  std::string bytes;
+  char buf[65536];
+  for (size_t n; (n = in.Read(buf, sizeof(buf))) > 0;) bytes.append(buf, n);
+  return bytes;
+}
+
+TEST(Rawlog, CorruptDepthImageSizeIsAnErrorNamingTheFrame) {
+  const std::string dir = test::makeTempDir("rawlog_depth_size");
+  writeLog(dir + "/run.rawlog", 3);
+  const std::string bytes = decompressed(dir + "/run.rawlog");
+  // Each frame's depth image: class name, ..., uint32 rows, uint32 cols (little-endian), data.
+  const std::string cls = "mrpt::obs::CObservation3DRangeScan";
+  const StereoRig rig = testRig();
+  std::string size_field(8, '\0');
+  const uint32_t rows = static_cast<uint32_t>(rig.height_px);
+  const uint32_t cols = static_cast<uint32_t>(rig.width_px);
+  std::memcpy(size_field.data(), &rows, 4);
+  std::memcpy(size_field.data() + 4, &cols, 4);
+  size_t at = bytes.find(cls);
+  at = bytes.find(cls, at + 1);  // frame 1's
+  ASSERT_NE(at, std::string::npos);
+  const size_t field = bytes.find(size_field, at);
+  ASSERT_NE(field, std::string::npos);
+  ASSERT_LT(field - at, 200u) << "size field not where MRPT 2.5 puts it";
+  fs::create_directory_symlink(dir + "/run_Images", dir + "/bad_Images");
+  // One byte changed: the rows' high byte (2^31 rows, which crashed in MRPT's allocator), or
+  // the cols' third byte (a 4 GB image that exhausted memory).
+  for (const size_t offset : {size_t{3}, size_t{6}}) {
+    std::string bad = bytes;
+    bad[field + offset] = static_cast<char>(0x7f);
+    {
+      // Uncompressed: MRPT's gzip reader passes plain files through.
+      std::ofstream out(dir + "/bad.rawlog", std::ios::binary | std::ios::trunc);
+      out << bad;
+    }
+    std::unique_ptr<RawlogReader> r;
+    ASSERT_TRUE(RawlogReader::open(dir + "/bad.rawlog", &r).isOk());
+    LogFrame frame;
+    Status st;
+    int n = 0;
+    while (r->next(&frame, &st)) ++n;
+    EXPECT_EQ(n, 1) << "frame 0 is intact";
+    EXPECT_NE(st.message().find("frame 1: "), std::string::npos) << st.message();
+    EXPECT_NE(st.message().find("depth image declares"), std::string::npos) << st.message();
+  }
+}
+
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+TEST(Rawlog, HugeDeclaredStringIsAnErrorNotAnAllocation) {
+  const std::string dir = test::makeTempDir("rawlog_string_size");
+  writeLog(dir + "/run.rawlog", 2);
+  std::string bytes = decompressed(dir + "/run.rawlog");
+  // The header comment's text is a uint32 length and its characters.
+  const size_t text = bytes.find("twocam rawlog v1");
+  ASSERT_NE(text, std::string::npos);
+  ASSERT_GE(text, 4u);
+  bytes[text - 1] = static_cast<char>(0x7f);  // ~2 GiB, zero-filled by std::string
+  {
+    std::ofstream out(dir + "/bad.rawlog", std::ios::binary);
+    out << bytes;
+  }
+  std::unique_ptr<RawlogReader> r;
+  const Status st = RawlogReader::open(dir + "/bad.rawlog", &r);
+  EXPECT_FALSE(st.isOk());
+  EXPECT_NE(st.message().find("above 256 MiB"), std::string::npos) << st.message();
+}
+
+TEST(Rawlog, NonFiniteOrHugePosesAreErrorsNamingTheFrame) {
+  const std::string dir = test::makeTempDir("rawlog_nan");
+  struct Case {
+    const char* name;
+    std::function<void(Frame*)> spoil;
+    const char* expected;
+  };
+  const std::vector<Case> cases = {
+      {"nan_odometry",
+       [](Frame* f) { f->odom.pose.x_m = std::numeric_limits<double>::quiet_NaN(); },
+       "odometry pose"},
+      {"inf_yaw",
+       [](Frame* f) { f->odom.pose.yaw_rad = std::numeric_limits<double>::infinity(); },
+       "odometry pose"},
+      {"nan_gt", [](Frame* f) { f->gt.T_w_b.matrix()(0, 0) = std::nan(""); }, "ground-truth pose"},
+      {"huge_gt", [](Frame* f) { f->gt.T_w_b.translation().x() = 1e300; }, "ground-truth pose"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = dir + "/" + c.name + ".rawlog";
+    const StereoRig rig = testRig();
+    std::mt19937 rng(42);
+    std::unique_ptr<RawlogWriter> w;
+    ASSERT_TRUE(RawlogWriter::open(path, rig, {}, &w).isOk());
+    for (int k = 0; k < 3; ++k) {
+      Frame f = makeFrame(rig, k, rng);
+      if (k == 1) c.spoil(&f);
+      ASSERT_TRUE(w->write(f.stereo, &f.odom, &f.gt).isOk());
+    }
+    ASSERT_TRUE(w->finish().isOk());
+    std::unique_ptr<RawlogReader> r;
+    ASSERT_TRUE(RawlogReader::open(path, &r).isOk());
+    LogFrame frame;
+    Status st;
+    int n = 0;
+    while (r->next(&frame, &st)) ++n;
+    EXPECT_EQ(n, 1) << c.name;
+    EXPECT_NE(st.message().find("frame 1: " + std::string(c.expected)), std::string::npos)
+        << c.name << ": " << st.message();
+  }
 }
 
 }  // namespace

@@ -42,6 +42,12 @@ double probabilityAt(const OccupancyMapper& mapper, const Eigen::Vector3d& p) {
 double logit(double p) { return std::log(p / (1.0 - p)); }
 double sigmoid(double l) { return 1.0 / (1.0 + std::exp(-l)); }
 
+TEST(MappingOptions, LimitWordingNamesKeyValueAndRange) {
+  MappingOptions o = defaultOptions();
+  o.resolution_m = 0.001;
+  EXPECT_EQ(o.validate().message(), "mapping.resolution_m = 0.001; must be in [0.02, 10] [m]");
+}
+
 TEST(MappingOptions, DefaultsAreValid) { EXPECT_TRUE(defaultOptions().validate().isOk()); }
 
 TEST(MappingOptions, RejectsBadValuesNamingTheField) {
@@ -55,6 +61,11 @@ TEST(MappingOptions, RejectsBadValuesNamingTheField) {
       {"max_range_m", [](MappingOptions* o) { o->max_range_m = -1.0; }},
       {"max_range_m",
        [](MappingOptions* o) { o->max_range_m = 5000.0; }},  // beyond the octree at 5 cm
+      // Costs the map cannot honour (0.001 m exhausted memory on the office log).
+      {"resolution_m", [](MappingOptions* o) { o->resolution_m = 0.001; }},
+      {"resolution_m", [](MappingOptions* o) { o->resolution_m = 100.0; }},
+      {"max_range_m", [](MappingOptions* o) { o->max_range_m = 200.0; }},
+      {"max_range_m", [](MappingOptions* o) { o->max_range_m = 60.0; }},  // 1200 voxels a ray
       {"prob_hit", [](MappingOptions* o) { o->prob_hit = 1.0; }},
       {"prob_hit", [](MappingOptions* o) { o->prob_hit = 0.45; }},
       {"prob_miss", [](MappingOptions* o) { o->prob_miss = 0.0; }},

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -469,12 +470,59 @@ TEST(WorldIo, EveryShippedWorldLoads) {
     const Status s = loadWorld(entry.path().string(), &w);
     EXPECT_TRUE(s.isOk()) << entry.path() << ": " << s.message();
     EXPECT_FALSE(w.name.empty()) << entry.path();
+    // The shipped worlds stay well inside the texture budget.
+    EXPECT_LT(textureTexels(w), 0.5 * kMaxWorldTexels) << entry.path();
+    EXPECT_LE(textureCount(w), kMaxTextures) << entry.path();
+    std::printf("%s: %.1f M texels, %d textures\n",
+                entry.path().stem().c_str(),
+                textureTexels(w) / (1 << 20),
+                textureCount(w));
     names.push_back(entry.path().stem().string());
   }
   for (const char* expected : {"office", "garden", "repetitive", "lowtexture"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end())
         << "worlds/" << expected << ".yaml is missing";
   }
+}
+
+TEST(WorldIo, LimitsTheRendererCanHonourNameTheKey) {
+  // Above what the offscreen framebuffer takes: one line naming the key, not an OpenGL dump.
+  const std::string wide = parseError(exampleWith("width_px: 640", "width_px: 20000"));
+  EXPECT_NE(wide.find("rig.width_px = 20000: must be in [16, 4096]"), std::string::npos) << wide;
+  const std::string mount = parseError(exampleWith("height_m: 0.5", "height_m: 1e200"));
+  EXPECT_NE(mount.find("rig.mount.height_m = 1e+200: must be in [-10, 10]"), std::string::npos)
+      << mount;
+}
+
+TEST(WorldIo, ManyTexturedShapesAreRefusedBeforeRasterising) {
+  // ~500 copies of a textured box took all memory in the renderer.
+  std::string text = kExampleYaml;
+  text += "\n";
+  for (int i = 0; i < 500; ++i) {
+    text += "  - {type: box, center_m: [" + std::to_string(i % 20) + ", " + std::to_string(i / 20) +
+            ", 1], size_m: [2, 2, 2], texture: {kind: blobs, scale_m: 0.1}}\n";
+  }
+  const std::string error = parseError(text);
+  EXPECT_NE(
+      error.find("textured surfaces (plane 1, box 6, cylinder 3); the renderer holds at most 192"),
+      std::string::npos)
+      << error;
+  // Few large surfaces: the texel budget.
+  std::string big = kExampleYaml;
+  big += "\n";
+  for (int i = 0; i < 20; ++i) {
+    big += "  - {type: box, center_m: [" + std::to_string(i) +
+           ", 0, 1], size_m: [20, 20, 20], texture: {kind: blobs, scale_m: 0.1}}\n";
+  }
+  const std::string texels = parseError(big);
+  EXPECT_NE(texels.find("shapes: the textures need"), std::string::npos) << texels;
+  EXPECT_NE(texels.find("at most 128 M"), std::string::npos) << texels;
+  std::string many = kExampleYaml;
+  many += "\n";
+  for (int i = 0; i < 1001; ++i)
+    many += "  - {type: wall, from_m: [0, 0], to_m: [1, 0], height_m: 1}\n";
+  const std::string too_many = parseError(many);
+  EXPECT_NE(too_many.find("shapes: 1006 shapes; at most 1000"), std::string::npos) << too_many;
 }
 
 }  // namespace

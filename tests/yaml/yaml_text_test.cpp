@@ -1,0 +1,85 @@
+// The YAML kit's input guard: what reaches MRPT's parser (libfyaml) is UTF-8 text without
+// control characters or directives, so that parsing always terminates.
+
+#include "yaml/yaml_text.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+
+namespace twocam::yaml {
+namespace {
+
+/// Parses on a worker thread and gives up after kParseBudget, so that a regression (a parse
+/// that spins) fails the test instead of hanging the suite.
+constexpr auto kParseBudget = std::chrono::seconds(10);  // a 2-byte input takes microseconds
+
+std::optional<std::string> parseWithin(const std::string& text, bool* finished) {
+  auto result = std::make_shared<std::promise<std::optional<std::string>>>();
+  auto future = result->get_future();
+  std::thread([text, result] {
+    mrpt::containers::yaml doc;
+    result->set_value(parseYaml(text, &doc));
+  }).detach();
+  *finished = future.wait_for(kParseBudget) == std::future_status::ready;
+  if (!*finished) return std::string("(still parsing)");
+  return future.get();
+}
+
+TEST(YamlText, DirectiveWithInvalidUtf8IsAnErrorNotAHang) {
+  // The inputs that made libfyaml spin (found by fuzzing `twocam simulate`).
+  for (const std::string& text : {std::string("%\xff", 2),
+                                  std::string("\xef\xbb\xbf%\xff", 5),
+                                  std::string("%YAML\xfe", 6)}) {
+    bool finished = false;
+    const auto error = parseWithin(text, &finished);
+    ASSERT_TRUE(finished) << "parse did not finish within the budget";
+    ASSERT_TRUE(error.has_value());
+    EXPECT_NE(error->find("line 1, column "), std::string::npos) << *error;
+  }
+}
+
+TEST(YamlText, RejectsDirectivesWithTheirLine) {
+  const auto error = checkYamlText("# config\n%YAML 1.2\n---\na: 1\n");
+  ASSERT_TRUE(error.has_value());
+  EXPECT_EQ(*error,
+            "line 2, column 1: YAML directives ('%...') are not supported; remove the line");
+}
+
+TEST(YamlText, RejectsInvalidUtf8WithItsPosition) {
+  const auto error = checkYamlText("a: 1\nname: caf\xe9\n");  // Latin-1 e-acute
+  ASSERT_TRUE(error.has_value());
+  EXPECT_EQ(*error,
+            "line 2, column 10: byte 0xe9 is not valid UTF-8 (the file must be UTF-8 text)");
+  // Overlong form, a surrogate, above U+10FFFF, a truncated sequence.
+  for (const std::string& bad : {std::string("a: \xc0\xaf"),
+                                 std::string("a: \xed\xa0\x80"),
+                                 std::string("a: \xf4\x90\x80\x80"),
+                                 std::string("a: \xe2\x82")}) {
+    EXPECT_TRUE(checkYamlText(bad).has_value()) << bad;
+  }
+}
+
+TEST(YamlText, RejectsControlCharacters) {
+  const auto nul = checkYamlText(std::string("a: 1\0", 5));
+  ASSERT_TRUE(nul.has_value());
+  EXPECT_NE(nul->find("line 1, column 5: control character 0x00"), std::string::npos) << *nul;
+  EXPECT_TRUE(checkYamlText("a: \x1b[0m").has_value());
+}
+
+TEST(YamlText, AcceptsUtf8TabsCrlfAndAByteOrderMark) {
+  EXPECT_FALSE(
+      checkYamlText("\xef\xbb\xbf# caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x99\x82\r\na:\t1\r\n"));
+  EXPECT_FALSE(checkYamlText("a: '50%'\nb: 100 %\n"));  // % inside a line is text
+  mrpt::containers::yaml doc;
+  EXPECT_FALSE(parseYaml("name: caf\xc3\xa9\n", &doc));
+  EXPECT_EQ(doc["name"].as<std::string>(), "caf\xc3\xa9");
+}
+
+}  // namespace
+}  // namespace twocam::yaml
