@@ -12,6 +12,7 @@ namespace {
 using internal::checkInputs;
 using internal::costCurve;
 using internal::CurveScratch;
+using internal::kMaxDisparityPx;
 using internal::kMaxPadded;
 using internal::parabolaOffset;
 using internal::StripSource;
@@ -283,6 +284,23 @@ Status measureRowSupport(const ImageU8& left,
                            std::to_string(p.first_hypothesis) + ", +" +
                            std::to_string(p.num_hypotheses) + ") of " +
                            std::to_string(hyps->hypotheses.size()));
+    }
+    // Hypotheses that no matcher on this pair produces would overflow the column and row
+    // arithmetic below (corner far outside, d_px NaN or huge).
+    if (p.corner.u_px < 0 || p.corner.u_px >= left.width || p.corner.v_px < 0 ||
+        p.corner.v_px >= left.height) {
+      return Status::error("point " + std::to_string(pi) + " has its corner at (" +
+                           std::to_string(p.corner.u_px) + ", " + std::to_string(p.corner.v_px) +
+                           "), outside the " + std::to_string(left.width) + "x" +
+                           std::to_string(left.height) + " images");
+    }
+    for (uint32_t j = p.first_hypothesis; j < p.first_hypothesis + p.num_hypotheses; ++j) {
+      const float d = hyps->hypotheses[j].d_px;
+      if (!(d >= 0.0f && d <= static_cast<float>(kMaxDisparityPx))) {
+        return Status::error("hypothesis " + std::to_string(j) +
+                             " has d_px = " + std::to_string(d) + "; must be in [0, " +
+                             std::to_string(kMaxDisparityPx) + "]");
+      }
     }
   }
   for (DisparityHypothesis& hyp : hyps->hypotheses) hyp.row_span_px = 0.0f;

@@ -17,7 +17,8 @@ namespace twocam::frontend {
 /// D +- R therefore adds about R px: it prefers a disparity outside the radius. With AVX2 (and
 /// plain SAD, 4 <= W <= 16) the costs come from SSE4.1's mpsadbw; the result is the same bit for
 /// bit. Errors (hyps untouched) as matchSalient's input checks, or for a point whose hypothesis
-/// range runs past the hypotheses.
+/// range runs past the hypotheses, whose corner lies outside the images, or one of whose
+/// hypotheses has a d_px that is not in [0, 32768] (NaN included).
 Status measureRowSupport(const ImageU8& left,
                          const ImageU8& right,
                          const SalientSadOptions& options,

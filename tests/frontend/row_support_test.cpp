@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -114,6 +115,45 @@ TEST(RowSupport, AWrongDisparityHasNoSupportAndBordersUseTheRowsThatExist) {
   options.row_support_radius_px = 0;
   EXPECT_FALSE(measureRowSupport(pair.left, pair.right, options, &hyps).isOk());
   EXPECT_NE(options.validate().message().find("row_support_radius_px"), std::string::npos);
+}
+
+// Hypotheses no matcher produces (a corner far outside the image, d_px NaN or huge) are errors,
+// not overflowing column arithmetic (UBSan: u_px + shift - W / 2 and int(d_px + 0.5)).
+TEST(RowSupport, RejectsHypothesesNoMatcherProduces) {
+  const cv::Mat tex = randomTexture(400, 140, 44);
+  const StereoPair pair = shiftedPair(tex, 320, 120, 9);
+  auto one = [](int u, int v, float d) {
+    StereoHypotheses hyps;
+    SalientPoint p;
+    p.corner = {u, v, 1.0f};
+    p.num_hypotheses = 1;
+    DisparityHypothesis h;
+    h.d_px = d;
+    hyps.points.push_back(p);
+    hyps.hypotheses.push_back(h);
+    return hyps;
+  };
+  const SalientSadOptions options;
+  struct Case {
+    int u;
+    int v;
+    float d;
+    const char* what;
+  };
+  for (const Case& c : {Case{std::numeric_limits<int>::max(), 50, 9.0f, "corner"},
+                        Case{150, std::numeric_limits<int>::min(), 9.0f, "corner"},
+                        Case{150, 50, std::numeric_limits<float>::quiet_NaN(), "d_px"},
+                        Case{150, 50, 3e9f, "d_px"},
+                        Case{150, 50, -1.0f, "d_px"}}) {
+    StereoHypotheses hyps = one(c.u, c.v, c.d);
+    hyps.hypotheses[0].row_span_px = 7.0f;
+    const Status s = measureRowSupport(pair.left, pair.right, options, &hyps);
+    EXPECT_FALSE(s.isOk()) << c.u << " " << c.v << " " << c.d;
+    EXPECT_NE(s.message().find(c.what), std::string::npos) << s.message();
+    EXPECT_EQ(hyps.hypotheses[0].row_span_px, 7.0f);  // untouched
+  }
+  StereoHypotheses fine = one(150, 50, 9.0f);
+  EXPECT_TRUE(measureRowSupport(pair.left, pair.right, options, &fine).isOk());
 }
 
 TEST(RowSupport, EveryKernelGivesTheSameSpans) {
