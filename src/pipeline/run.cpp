@@ -1,9 +1,21 @@
 #include "pipeline/run.h"
 
+#include <cmath>
+#include <sstream>
+
 #include "common/frames.h"
 #include "common/timer.h"
 
 namespace twocam::pipeline {
+namespace {
+
+/// A pose the landmark maths can take: finite, within io::kMaxLogCoordinateM of the origin.
+bool finitePose(const Pose2& p) {
+  return std::isfinite(p.x_m) && std::isfinite(p.y_m) && std::isfinite(p.yaw_rad) &&
+         std::abs(p.x_m) <= io::kMaxLogCoordinateM && std::abs(p.y_m) <= io::kMaxLogCoordinateM;
+}
+
+}  // namespace
 
 Run::Run(const StereoRig& rig, const PipelineConfig& config) : pipe_(rig, config) {}
 
@@ -37,6 +49,15 @@ Status Run::execute(const FrameSource& next,
     if (callbacks.progress) callbacks.progress(s.frames);
     if (s.odometry_mode && !frame.odometry) {
       warn("skipping frame " + std::to_string(frame.index) + ": it has no odometry");
+      ++s.skipped;
+      continue;
+    }
+    if (s.odometry_mode && !finitePose(frame.odometry->pose)) {
+      const Pose2& p = frame.odometry->pose;
+      std::ostringstream os;
+      os << "skipping frame " << frame.index << ": its odometry pose (" << p.x_m << ", " << p.y_m
+         << ", " << p.yaw_rad << ") is not finite or beyond " << io::kMaxLogCoordinateM << " m";
+      warn(os.str());
       ++s.skipped;
       continue;
     }
