@@ -10,7 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
-#include <functional>
+#include <unordered_map>
 #include <vector>
 
 #include "common/features.h"
@@ -99,12 +99,6 @@ struct Landmark {
   std::vector<Observation> observations;
 };
 
-/// Measures stereo hypotheses at given left pixels of the current frame (the frontend's matcher
-/// run on chosen pixels instead of detected corners): one SalientPoint per pixel whose window
-/// fits the image, in input order, each with its hypotheses. See LandmarkOptions::probe_unseen.
-using DisparityProbe =
-    std::function<Status(const std::vector<Corner>& pixels, StereoHypotheses* out)>;
-
 /// What happened in one update.
 struct FrameReport {
   int32_t frame = 0;
@@ -119,14 +113,26 @@ struct FrameReport {
   /// many of those measurements found them (one answer in the gate, with row support).
   int probed = 0;
   int probe_found = 0;
-  /// Slots of the landmarks created this frame (read their anchors through landmarks()) and,
-  /// in parallel, the index of the hypothesis each was seeded from.
-  std::vector<uint32_t> created_slots;
-  std::vector<uint32_t> created_hypotheses;
+  /// Ids of the landmarks created this frame (read them through LandmarkDatabase::find()) and,
+  /// in parallel, the index of the hypothesis each was seeded from (created_hypotheses).
+  std::vector<uint64_t> created_ids;
+  /// Ids of the landmarks associated with one of this frame's hypotheses (a hit), in the order
+  /// of the predictions; each appears once.
+  std::vector<uint64_t> associated_ids;
   /// Ids of the landmarks removed this frame.
   std::vector<uint64_t> removed_ids;
-  /// Per input hypothesis: slot of the landmark it was associated with or seeded into, or -1.
-  /// An associated landmark may still have been removed later in the same update (removed_ids).
+  /// Per input hypothesis: id of the landmark it was associated with or seeded into, or 0 (ids
+  /// start at 1). An associated landmark may still have been removed later in the same update
+  /// (removed_ids): find() then returns nullptr.
+  std::vector<uint64_t> hypothesis_landmark_id;
+
+  /// Deprecated: slot-based, use created_ids. Slots of the landmarks created this frame.
+  std::vector<uint32_t> created_slots;
+  /// Index of the hypothesis each created landmark was seeded from, parallel to created_ids
+  /// (and created_slots).
+  std::vector<uint32_t> created_hypotheses;
+  /// Deprecated: slot-based, use hypothesis_landmark_id. Per input hypothesis: slot of the
+  /// landmark it was associated with or seeded into, or -1.
   std::vector<int32_t> hypothesis_landmark;
 };
 
@@ -137,22 +143,47 @@ class LandmarkDatabase {
   /// CHECK-fails on an invalid rig or options (validate them first: a programmer error here).
   LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options);
 
-  /// Processes one stereo frame: predicts every live landmark with the odometry pose, associates,
-  /// scores, confirms, refines, prunes and seeds new candidates from the unexplained hypotheses.
-  /// `frame` counts from 0 in log order and must increase; t_ns must not go backwards.
-  /// Returns an error, leaving the database unchanged, for a non-finite pose, a frame index or
-  /// time stamp that goes backwards, or hypotheses that reference missing points.
-  /// `probe`, when given (and LandmarkOptions::probe_unseen, consistency policy), re-measures
-  /// the candidates that were predicted visible but not associated; an error it returns is
-  /// returned (the frame's associations are then applied but not scored: the run cannot go on).
+  /// Processes one stereo frame without re-measuring unseen candidates: beginFrame() then
+  /// finishFrame(). Replayed hypotheses (no images) use this; LandmarkOptions::probe_unseen is
+  /// then idle. Errors as beginFrame().
   Status update(int32_t frame,
                 int64_t t_ns,
                 const Pose2& odom_pose,
                 const StereoHypotheses& hypotheses,
-                FrameReport* report,
-                const DisparityProbe* probe = nullptr);
+                FrameReport* report);
 
-  /// All slots; skip those in state kFree.
+  /// One frame in steps, so that the caller can re-measure the unseen candidates on the frame's
+  /// images (LandmarkOptions::probe_unseen) between association and scoring:
+  ///   beginFrame()      predicts every live landmark with the odometry pose and associates;
+  ///   probeRequests()   the predicted pixels of the candidates predicted visible but not
+  ///                     associated (empty unless probe_unseen and the consistency policy);
+  ///   addProbeResults() the frontend's measurements at those pixels (Frontend::measureAt);
+  ///   finishFrame()     scores, confirms, refines, prunes, seeds and enforces the caps.
+  /// The probe steps may be skipped. `frame` counts from 0 in log order and must increase;
+  /// t_ns must not go backwards. beginFrame returns an error, leaving the database unchanged,
+  /// for a non-finite pose, a frame index or time stamp that goes backwards, or hypotheses that
+  /// reference missing points. `hypotheses` and `report` must stay alive until finishFrame.
+  /// A frame left unfinished (the probe failed: the run cannot go on) keeps its associations
+  /// but is not scored.
+  Status beginFrame(int32_t frame,
+                    int64_t t_ns,
+                    const Pose2& odom_pose,
+                    const StereoHypotheses& hypotheses,
+                    FrameReport* report);
+  /// Left pixels to re-measure, in a fixed order; valid until addProbeResults or finishFrame.
+  [[nodiscard]] const std::vector<Corner>& probeRequests();
+  /// `measured`: one SalientPoint per requested pixel whose window fits the image, in request
+  /// order, each with its hypotheses. Marks the candidates found there (one answer inside the
+  /// gate, with row support) as neither hit nor missed. Error (nothing marked) when a point is at
+  /// a pixel that was not requested.
+  Status addProbeResults(const StereoHypotheses& measured);
+  void finishFrame();
+
+  /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
+  [[nodiscard]] const Landmark* find(uint64_t id) const;
+
+  /// Deprecated: slot-based, use find() and the ids of FrameReport. All slots; skip those in
+  /// state kFree.
   [[nodiscard]] const std::vector<Landmark>& landmarks() const { return slots_; }
   [[nodiscard]] int numCandidates() const { return num_candidates_; }
   [[nodiscard]] int numConfirmed() const { return num_confirmed_; }
@@ -184,15 +215,10 @@ class LandmarkDatabase {
   void normaliseGroup(uint32_t group);
   void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
   void associate(const StereoHypotheses& hyps, FrameReport* report);
-  /// LandmarkOptions::probe_unseen: marks in probed_ the unassociated candidates the probe finds.
-  Status probeUnseen(const DisparityProbe& probe, FrameReport* report);
   /// Returns false when the observation contradicts the candidate's anchor (not recorded).
   [[nodiscard]] bool rowSupported(const DisparityHypothesis& h) const;
-  /// Prior mass of "none of a point's hypotheses is real" for a point seeded with `rivals`
-  /// candidates: 1 - prior_real_lone for a lone one, else 1 - prior_real.
-  [[nodiscard]] double noneMass(int rivals) const {
-    return 1.0 - (rivals == 1 ? options_.prior_real_lone : options_.prior_real);
-  }
+  /// Prior mass of "none of a point's hypotheses is real": 1 - prior_real.
+  [[nodiscard]] double noneMass() const { return 1.0 - options_.consistency.prior_real; }
   bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
   /// T_w_cl of the landmark's anchor frame, from the ring of recent frames' poses when it is
   /// there (the anchor check needs it for every candidate association).
@@ -258,11 +284,16 @@ class LandmarkDatabase {
   std::vector<uint32_t> groups_touched_;
   std::vector<uint8_t> group_touched_flag_;
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
-  // probeUnseen's per-frame buffers (reused): pixels, the prediction each stands for, results.
+  // The probe's per-frame buffers (reused): pixels and the prediction each stands for.
   std::vector<Corner> probe_pixels_;
   std::vector<uint32_t> probe_prediction_;
-  StereoHypotheses probe_hyps_;
   std::vector<uint8_t> probed_;  // per slot: found by this frame's probe (neither hit nor miss)
+  bool probe_requests_built_ = false;
+  /// The frame between beginFrame and finishFrame.
+  const StereoHypotheses* frame_hyps_ = nullptr;
+  FrameReport* frame_report_ = nullptr;
+  /// Live landmarks: id -> slot.
+  std::unordered_map<uint64_t, uint32_t> slot_of_id_;
 };
 
 }  // namespace twocam::landmarks

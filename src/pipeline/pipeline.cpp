@@ -17,8 +17,8 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
   frontend::SalientSadOptions& sad = config->frontend.sad;
   sad.max_disparity_px = std::min(sad.max_disparity_px, rig.width_px - sad.window_width_px);
-  config->landmarks.max_disparity_px = sad.max_disparity_px;
-  config->landmarks.min_disparity_px = sad.min_disparity_px;
+  config->landmarks.tracker.max_disparity_px = sad.max_disparity_px;
+  config->landmarks.tracker.min_disparity_px = sad.min_disparity_px;
   return config->validate();
 }
 
@@ -33,6 +33,7 @@ void Pipeline::skipRowSupport() {
 
 Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out) {
   out->mapped_points_w.clear();
+  out->mapped_ids.clear();
   out->mapped_slots.clear();
   out->outside_map = false;
   out->times = StageTimes{};
@@ -49,13 +50,7 @@ Status Pipeline::process(int32_t frame,
                          const Pose2& odom_pose,
                          FrameOutput* out) {
   if (Status s = processFrontendOnly(stereo, out); !s) return s;
-  // Candidates whose corner was not detected are re-measured on this frame's images
-  // (LandmarkOptions::probe_unseen); replayed hypotheses (processHypotheses) have none.
-  const landmarks::DisparityProbe probe = [this, &stereo](const std::vector<Corner>& pixels,
-                                                          StereoHypotheses* h) {
-    return frontend_.measureAt(stereo, pixels, h);
-  };
-  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out, &probe);
+  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out, &stereo);
 }
 
 Status Pipeline::processHypotheses(int32_t frame,
@@ -64,6 +59,7 @@ Status Pipeline::processHypotheses(int32_t frame,
                                    const StereoHypotheses& hypotheses,
                                    FrameOutput* out) {
   out->mapped_points_w.clear();
+  out->mapped_ids.clear();
   out->mapped_slots.clear();
   out->outside_map = false;
   out->times = StageTimes{};
@@ -77,12 +73,29 @@ Status Pipeline::landmarksAndMap(int32_t frame,
                                  const Pose2& odom_pose,
                                  const StereoHypotheses& hyps,
                                  FrameOutput* out,
-                                 const landmarks::DisparityProbe* probe) {
+                                 const StereoFrame* images) {
   const auto t1 = std::chrono::steady_clock::now();
-  if (Status s = db_.update(frame, t_ns, odom_pose, hyps, &report_, probe); !s) {
+  if (Status s = db_.beginFrame(frame, t_ns, odom_pose, hyps, &report_); !s) {
     out->failure = FrameOutput::Failure::kLandmarks;
     return s;
   }
+  // Candidates whose corner was not detected are re-measured on this frame's images
+  // (LandmarkOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its
+  // time counts in the landmark stage.
+  if (images != nullptr) {
+    const std::vector<Corner>& pixels = db_.probeRequests();
+    if (!pixels.empty()) {
+      Status s = frontend_.measureAt(*images, pixels, &probe_hyps_);
+      if (s) s = db_.addProbeResults(probe_hyps_);
+      if (!s) {
+        out->failure = FrameOutput::Failure::kLandmarks;
+        if (s.message().rfind("frame ", 0) == 0) return s;
+        return Status::error("frame " + std::to_string(frame) +
+                             ": re-measuring unseen candidates: " + s.message());
+      }
+    }
+  }
+  db_.finishFrame();
   out->times.landmarks_ms = msSince(t1);
 
   // Map: one ray per confirmed landmark observed in this frame (a landmark is listed once even
@@ -97,6 +110,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       continue;
     slot_mapped_[static_cast<size_t>(slot)] = 1;
     out->mapped_points_w.push_back(l.p_w);
+    out->mapped_ids.push_back(l.id);
     out->mapped_slots.push_back(static_cast<uint32_t>(slot));
   }
   for (int32_t slot : report_.hypothesis_landmark) {

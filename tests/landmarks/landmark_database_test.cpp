@@ -111,7 +111,7 @@ TEST(LandmarkDatabase, CompleteListsAreVerifiedAgainstTheirOwnRivals) {
   so.complete_lists = true;
   const RunOutcome own = runSynthetic(so, options, 300);
   LandmarkOptions off = options;
-  off.verify_own_rivals = false;
+  off.consistency.verify_own_rivals = false;
   const RunOutcome ignored = runSynthetic(so, off, 300);
   std::printf("confirmed (correct): generic phantoms %d (%d), own rivals %d (%d)\n",
               generic.confirmed,
@@ -137,7 +137,7 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   const LandmarkOptions options;
   const RunOutcome same = runSynthetic(so, options, 300);
   LandmarkOptions strict = options;
-  strict.same_answer_px = 0.0;
+  strict.consistency.same_answer_px = 0.0;
   const RunOutcome apart = runSynthetic(so, strict, 300);
   std::printf(
       "every real match listed twice, confirmed (correct): twins the same answer %d (%d), "
@@ -149,52 +149,6 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   EXPECT_GT(same.correct, kMinTwinGain * apart.correct);
   EXPECT_GE(static_cast<double>(same.correct) / same.confirmed, kMinPrecision)
       << "wrong: " << same.wrong_periodic << " periodic, " << same.wrong_random << " random";
-}
-
-TEST(LandmarkDatabase, LonePriorOnlyMovesLoneCandidates) {
-  // prior_real_lone is the prior of a point seeded without rivals. Equal to prior_real it is the
-  // same database; higher, lone candidates confirm sooner and more of them (the default keeps it
-  // equal: docs/landmarks.md, "Prior of a lone candidate"). Points seeded with rivals do not see
-  // it: they still share prior_real.
-  SyntheticStreamOptions so;
-  so.seed = 7;
-  LandmarkOptions options;
-  ASSERT_EQ(options.prior_real_lone, options.prior_real);
-  const RunOutcome base = runSynthetic(so, options, 300);
-  LandmarkOptions lone = options;
-  lone.prior_real_lone = 0.9;
-  const RunOutcome raised = runSynthetic(so, lone, 300);
-  std::printf("confirmed (correct) with a lone prior of 0.5: %d (%d), 0.9: %d (%d)\n",
-              base.confirmed,
-              base.correct,
-              raised.confirmed,
-              raised.correct);
-  EXPECT_GT(raised.correct, base.correct + base.correct / 10);
-  EXPECT_GE(static_cast<double>(raised.correct) / raised.confirmed, kMinPrecision);
-  // At creation a lone candidate's confidence is prior_real_lone; one with rivals shares
-  // prior_real with them.
-  const StereoRig rig = SyntheticStream::defaultRig();
-  SyntheticStream stream(rig, so);
-  LandmarkDatabase db(rig, lone);
-  SyntheticFrame frame;
-  FrameReport report;
-  stream.next(&frame);
-  ASSERT_TRUE(
-      db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
-  int lone_seen = 0;
-  int grouped_seen = 0;
-  for (uint32_t slot : report.created_slots) {
-    const Landmark& l = db.landmarks()[slot];
-    if (l.rivals_at_creation == 1) {
-      ++lone_seen;
-      EXPECT_FLOAT_EQ(l.confidence, 0.9f);
-    } else {
-      ++grouped_seen;
-      EXPECT_LE(l.confidence, static_cast<float>(lone.prior_real));
-    }
-  }
-  EXPECT_GT(lone_seen, 10);
-  EXPECT_GT(grouped_seen, 10);
 }
 
 TEST(LandmarkDatabase, WinnerTakesAllKeepsSpuriousBestMatches) {
@@ -330,7 +284,7 @@ TEST(LandmarkDatabase, CornersOnDepthEdgesAreNotSeededUnlessAsked) {
   LandmarkDatabase edged_db(rig, LandmarkOptions());
   ASSERT_TRUE(edged_db.update(0, frame.t_ns, frame.odom_pose, edged, &edged_report).isOk());
   LandmarkOptions keep;
-  keep.seed_depth_edges = true;
+  keep.tracker.seed_depth_edges = true;
   FrameReport keep_report;
   LandmarkDatabase keep_db(rig, keep);
   ASSERT_TRUE(keep_db.update(0, frame.t_ns, frame.odom_pose, edged, &keep_report).isOk());
@@ -388,7 +342,7 @@ TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
   EXPECT_LE(even, odd / 50);
   EXPECT_GT(odd, 100);
   LandmarkOptions off;
-  off.max_row_unsupported_fraction = 1.0;
+  off.consistency.max_row_unsupported_fraction = 1.0;
   int even_off = 0;
   int odd_off = 0;
   run(off, &even_off, &odd_off);
@@ -396,7 +350,7 @@ TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
   EXPECT_NEAR(odd_off, odd, 0.2 * odd);
   // A wider bound lets the 3 px spans pass.
   LandmarkOptions wide;
-  wide.max_row_span_px = 5.0;
+  wide.consistency.max_row_span_px = 5.0;
   int even_wide = 0;
   int odd_wide = 0;
   run(wide, &even_wide, &odd_wide);
@@ -455,7 +409,7 @@ TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
   const RunOutcome early = runSynthetic(so, LandmarkOptions(), kShort);
   const RunOutcome with_rule = runSynthetic(so, LandmarkOptions(), kFrames);
   LandmarkOptions nearest;
-  nearest.unambiguous_confirmed_hits = false;
+  nearest.consistency.unambiguous_confirmed_hits = false;
   const RunOutcome early_without = runSynthetic(so, nearest, kShort);
   const RunOutcome without_rule = runSynthetic(so, nearest, kFrames);
   std::printf(
@@ -490,7 +444,7 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
   so.seed = 5;
   so.num_points = 1500;
   LandmarkOptions options;
-  options.max_confirmed = 300;
+  options.tracker.max_confirmed = 300;
   const StereoRig rig = SyntheticStream::defaultRig();
   SyntheticStream stream(rig, so);
   LandmarkDatabase db(rig, options);
@@ -500,9 +454,9 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
     stream.next(&frame);
     ASSERT_TRUE(
         db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
-    ASSERT_LE(db.numConfirmed(), options.max_confirmed);
+    ASSERT_LE(db.numConfirmed(), options.tracker.max_confirmed);
   }
-  EXPECT_EQ(db.numConfirmed(), options.max_confirmed);
+  EXPECT_EQ(db.numConfirmed(), options.tracker.max_confirmed);
 }
 
 /// A frame's frontend output holding one corner at the rounded pixel of `uvd` with the single
@@ -550,18 +504,18 @@ TEST(LandmarkDatabase, ConfirmationNeedsAMinimumParallax) {
   const Eigen::Vector3d ahead = rig.T_b_cl.translation() + Eigen::Vector3d(4.0, 0.0, 0.0);
   const Eigen::Vector3d beside = ahead + Eigen::Vector3d(0.0, 1.0, 0.0);
   const LandmarkOptions options;
-  ASSERT_GT(options.min_parallax_deg, 0.0);
+  ASSERT_GT(options.consistency.min_parallax_deg, 0.0);
   EXPECT_EQ(confirmationFrame(options, ahead, kFrames), -1);
   const int beside_frame = confirmationFrame(options, beside, kFrames);
-  EXPECT_GE(beside_frame, options.min_observations - 1);
+  EXPECT_GE(beside_frame, options.consistency.min_observations - 1);
   EXPECT_LT(beside_frame, 10) << "0.1 deg is reached after 2 frames";
   // Without the rule the point ahead is confirmed as soon as the one beside.
   LandmarkOptions any = options;
-  any.min_parallax_deg = 0.0;
+  any.consistency.min_parallax_deg = 0.0;
   EXPECT_EQ(confirmationFrame(any, ahead, kFrames), beside_frame);
   // A rule the point beside cannot meet within the run (3.3 deg after 0.8 m).
   LandmarkOptions strict = options;
-  strict.min_parallax_deg = 5.0;
+  strict.consistency.min_parallax_deg = 5.0;
   EXPECT_EQ(confirmationFrame(strict, beside, kFrames), -1);
 }
 
@@ -592,26 +546,28 @@ ProbeRun runFlickeringPoint(const LandmarkOptions& options,
     EXPECT_TRUE(projectStereo(rig, p_cl, &uvd));
     const float d_true = static_cast<float>(uvd.z());
     const StereoHypotheses hyps = k == 0 ? lonePoint(uvd) : StereoHypotheses();
-    const DisparityProbe probe = [&](const std::vector<Corner>& pixels, StereoHypotheses* out) {
-      out->clear();
-      for (const Corner& c : pixels) {
+    // The pipeline's probe step, with a stand-in for Frontend::measureAt.
+    Status s = db.beginFrame(k, 100'000'000LL * k, pose, hyps, &report);
+    EXPECT_TRUE(s.isOk()) << s.message();
+    if (with_probe) {
+      StereoHypotheses measured;
+      for (const Corner& c : db.probeRequests()) {
         SalientPoint sp;
         sp.corner = c;
-        sp.first_hypothesis = static_cast<uint32_t>(out->hypotheses.size());
+        sp.first_hypothesis = static_cast<uint32_t>(measured.hypotheses.size());
         for (float d : answers(d_true)) {
           DisparityHypothesis h;
           h.d_px = d;
-          h.point_index = static_cast<uint32_t>(out->points.size());
-          out->hypotheses.push_back(h);
+          h.point_index = static_cast<uint32_t>(measured.points.size());
+          measured.hypotheses.push_back(h);
           ++sp.num_hypotheses;
         }
-        out->points.push_back(sp);
+        measured.points.push_back(sp);
       }
-      return Status::ok();
-    };
-    const Status s =
-        db.update(k, 100'000'000LL * k, pose, hyps, &report, with_probe ? &probe : nullptr);
-    EXPECT_TRUE(s.isOk()) << s.message();
+      s = db.addProbeResults(measured);
+      EXPECT_TRUE(s.isOk()) << s.message();
+    }
+    db.finishFrame();
     run.probed += report.probed;
     run.probe_found += report.probe_found;
   }
@@ -629,7 +585,7 @@ ProbeRun runFlickeringPoint(const LandmarkOptions& options,
 TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   constexpr int kFrames = 20;  // past max_consecutive_misses (8) and the prune probability
   const LandmarkOptions options;
-  ASSERT_TRUE(options.probe_unseen);
+  ASSERT_TRUE(options.consistency.probe_unseen);
   const auto truth = [](float d) { return std::vector<float>{d}; };
   const ProbeRun found = runFlickeringPoint(options, truth, true, kFrames);
   EXPECT_TRUE(found.alive);
@@ -639,7 +595,7 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   // Without the probe, or with the option off, the misses prune it.
   EXPECT_FALSE(runFlickeringPoint(options, truth, false, kFrames).alive);
   LandmarkOptions off = options;
-  off.probe_unseen = false;
+  off.consistency.probe_unseen = false;
   const ProbeRun unused = runFlickeringPoint(off, truth, true, kFrames);
   EXPECT_FALSE(unused.alive);
   EXPECT_EQ(unused.probed, 0);
@@ -672,22 +628,52 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   EXPECT_EQ(runFlickeringPoint(seen, truth, true, kFrames).probed, 0);
 }
 
-TEST(LandmarkDatabase, ProbeErrorStopsTheUpdateWithAClearMessage) {
+TEST(LandmarkDatabase, ProbeResultAtAPixelNotAskedForIsAnErrorThatMarksNothing) {
   AfterFirstFrame first;
   ASSERT_TRUE(first.status.isOk()) << first.status.message();
   LandmarkDatabase& db = first.db;
   const SyntheticFrame& frame = first.frame;
   FrameReport& report = first.report;
-  const DisparityProbe failing = [](const std::vector<Corner>&, StereoHypotheses*) {
-    return Status::error("images differ in size");
-  };
-  // Nothing detected in the next frame: every candidate is unassociated, so the probe runs.
-  const Status s =
-      db.update(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report, &failing);
+  // Nothing detected in the next frame: every candidate is unassociated, so all are requested.
+  ASSERT_TRUE(
+      db.beginFrame(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report).isOk());
+  const std::vector<Corner> requests = db.probeRequests();
+  ASSERT_FALSE(requests.empty());
+  EXPECT_EQ(report.probed, static_cast<int>(requests.size()));
+  StereoHypotheses measured;
+  SalientPoint stray;
+  stray.corner.u_px = requests[0].u_px + 1;  // beside the requested pixel
+  stray.corner.v_px = requests[0].v_px;
+  measured.points.push_back(stray);
+  const Status s = db.addProbeResults(measured);
   ASSERT_FALSE(s.isOk());
-  EXPECT_NE(s.message().find("re-measuring unseen candidates: images differ in size"),
+  EXPECT_NE(s.message().find("re-measuring unseen candidates: the probe returned a pixel"),
             std::string::npos)
       << s.message();
+  EXPECT_EQ(report.probe_found, 0);
+}
+
+TEST(LandmarkDatabase, ReportsIdsThatFindLooksUp) {
+  AfterFirstFrame first;
+  ASSERT_TRUE(first.status.isOk()) << first.status.message();
+  const LandmarkDatabase& db = first.db;
+  const FrameReport& report = first.report;
+  ASSERT_FALSE(report.created_ids.empty());
+  ASSERT_EQ(report.created_ids.size(), report.created_slots.size());
+  ASSERT_EQ(report.created_ids.size(), report.created_hypotheses.size());
+  for (size_t i = 0; i < report.created_ids.size(); ++i) {
+    const Landmark* l = db.find(report.created_ids[i]);
+    ASSERT_NE(l, nullptr);
+    EXPECT_EQ(l, &db.landmarks()[report.created_slots[i]]);
+    EXPECT_EQ(report.hypothesis_landmark_id[report.created_hypotheses[i]], l->id);
+  }
+  for (size_t j = 0; j < report.hypothesis_landmark.size(); ++j) {
+    const int32_t slot = report.hypothesis_landmark[j];
+    EXPECT_EQ(report.hypothesis_landmark_id[j],
+              slot < 0 ? 0 : db.landmarks()[static_cast<size_t>(slot)].id);
+  }
+  EXPECT_EQ(db.find(0), nullptr);
+  for (uint64_t id : report.removed_ids) EXPECT_EQ(db.find(id), nullptr);
 }
 
 TEST(LandmarkModel, RivalProbabilitiesSumToAtMostOne) {
@@ -706,10 +692,10 @@ TEST(LandmarkModel, GateGrowsWithDistanceAndTurn) {
   const StereoRig rig = SyntheticStream::defaultRig();
   const LandmarkOptions options;
   const Eigen::Vector3d uvd(400.0, 300.0, 20.0);
-  const MeasurementSigma s0 = predictionSigma(options, rig, uvd, 3.0, 0.0, 0.0);
-  const MeasurementSigma s1 = predictionSigma(options, rig, uvd, 3.0, 1.0, 0.0);
-  const MeasurementSigma s2 = predictionSigma(options, rig, uvd, 3.0, 1.0, 0.5);
-  EXPECT_DOUBLE_EQ(s0.u_px, options.pixel_sigma_px);
+  const MeasurementSigma s0 = predictionSigma(options.tracker, rig, uvd, 3.0, 0.0, 0.0);
+  const MeasurementSigma s1 = predictionSigma(options.tracker, rig, uvd, 3.0, 1.0, 0.0);
+  const MeasurementSigma s2 = predictionSigma(options.tracker, rig, uvd, 3.0, 1.0, 0.5);
+  EXPECT_DOUBLE_EQ(s0.u_px, options.tracker.pixel_sigma_px);
   EXPECT_GT(s1.u_px, s0.u_px);
   EXPECT_GT(s1.d_px, s0.d_px);
   EXPECT_GT(s2.u_px, s1.u_px);
@@ -739,7 +725,7 @@ TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
   constexpr double kPathM = 0.6;
   for (const bool columns : {false, true}) {
     LandmarkOptions options;
-    options.anchor_check_columns = columns;
+    options.consistency.anchor_check_columns = columns;
     const AnchorCheck real = checkAgainstAnchor(options,
                                                 rig,
                                                 T_w_cl_anchor,
@@ -768,10 +754,10 @@ TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
     EXPECT_LT(real.mahalanobis2, 0.01)
         << "columns " << columns;  // exact observation of a real point
     if (columns) {
-      EXPECT_GT(alias.mahalanobis2, 2.0 * options.anchor_gate_chi2);
+      EXPECT_GT(alias.mahalanobis2, 2.0 * options.consistency.anchor_gate_chi2);
     } else {
       EXPECT_LT(alias.mahalanobis2,
-                options.anchor_gate_chi2);  // what the row/disparity check misses
+                options.consistency.anchor_gate_chi2);  // what the row/disparity check misses
     }
   }
   // A 25 px column error contradicts a real point after straight driving; after a turn the
@@ -802,8 +788,8 @@ TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
                                                 kPathM,
                                                 1.5);
   ASSERT_TRUE(straight.valid && turned.valid);
-  EXPECT_GT(straight.mahalanobis2, options.anchor_gate_chi2);
-  EXPECT_LT(turned.mahalanobis2, options.anchor_gate_chi2);
+  EXPECT_GT(straight.mahalanobis2, options.consistency.anchor_gate_chi2);
+  EXPECT_LT(turned.mahalanobis2, options.consistency.anchor_gate_chi2);
 }
 
 // Verification sums the evidence of every consistent re-observation against the two periodic
@@ -822,8 +808,8 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
   const double d_real = fb / 4.0;
   // A candidate that is a phantom: its anchor disparity is the real one's times a fixed ratio,
   // the real point sitting on the anchor ray at the lower phantom disparity of the test.
-  const double offset =
-      std::max(options.verify_min_offset_px, options.verify_relative_offset * d_real);
+  const double offset = std::max(options.consistency.verify_min_offset_px,
+                                 options.consistency.verify_relative_offset * d_real);
   const double d_phantom = d_real * d_real / (d_real - offset);
   const auto p_real = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_real);
   ASSERT_TRUE(p_real.has_value());
@@ -864,7 +850,8 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
                                                    0.0);
     ASSERT_TRUE(real.valid && phantom.valid);
     EXPECT_LT(real.mahalanobis2, 0.01);
-    if (phantom.mahalanobis2 <= options.anchor_gate_chi2) {  // a contradiction is not summed
+    if (phantom.mahalanobis2 <=
+        options.consistency.anchor_gate_chi2) {  // a contradiction is not summed
       for (int i = 0; i < 2; ++i) llr_phantom[i] += phantom.phantom_llr[i];
     }
     for (int i = 0; i < 2; ++i) {
@@ -872,7 +859,7 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
           << "frame " << k;  // an exact observation favours the truth
       llr_real[i] += real.phantom_llr[i];
     }
-    if (verified_frame < 0 && std::min(llr_real[0], llr_real[1]) >= options.verify_llr)
+    if (verified_frame < 0 && std::min(llr_real[0], llr_real[1]) >= options.consistency.verify_llr)
       verified_frame = k;
     if (discriminative_frame < 0 && real.discriminative) discriminative_frame = k;
   }
@@ -890,7 +877,7 @@ TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
       << discriminative_frame;
   // The phantom's own evidence favours the real point it is a phantom of.
   EXPECT_LT(llr_phantom[0], 0.0);
-  EXPECT_LT(std::min(llr_phantom[0], llr_phantom[1]), options.verify_llr);
+  EXPECT_LT(std::min(llr_phantom[0], llr_phantom[1]), options.consistency.verify_llr);
 }
 
 // Explicit phantom disparities replace the generic offsets in phantom_llr (not in
@@ -924,8 +911,8 @@ TEST(LandmarkModel, OwnPhantomDisparitiesReplaceTheGenericOffsets) {
                               phantoms);
   };
   const AnchorCheck generic = check(nullptr);
-  const double offset =
-      std::max(options.verify_min_offset_px, options.verify_relative_offset * d_a);
+  const double offset = std::max(options.consistency.verify_min_offset_px,
+                                 options.consistency.verify_relative_offset * d_a);
   const float same[2] = {static_cast<float>(d_a - offset), static_cast<float>(d_a + offset)};
   const AnchorCheck as_generic = check(same);
   for (int k = 0; k < 2; ++k) EXPECT_NEAR(as_generic.phantom_llr[k], generic.phantom_llr[k], 1e-6);
@@ -1000,26 +987,46 @@ TEST(Refine, RecoversPointFromNoisyViewsDespiteAnOutlier) {
 TEST(LandmarkOptions, ValidateNamesTheKey) {
   LandmarkOptions o;
   EXPECT_TRUE(o.validate().isOk());
-  o.confirm_prob = 1.5;
-  EXPECT_NE(o.validate().message().find("confirm_prob"), std::string::npos);
+  o.consistency.confirm_prob = 1.5;
+  EXPECT_EQ(o.validate().message(), "landmarks.consistency.confirm_prob = 1.5; must be in (0, 1)");
   o = LandmarkOptions();
-  o.max_row_unsupported_fraction = 1.5;
+  o.consistency.max_row_unsupported_fraction = 1.5;
   EXPECT_NE(o.validate().message().find("max_row_unsupported_fraction"), std::string::npos);
   o = LandmarkOptions();
-  o.max_row_span_px = std::numeric_limits<double>::quiet_NaN();
+  o.consistency.max_row_span_px = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(o.validate().message().find("max_row_span_px"), std::string::npos);
   o = LandmarkOptions();
-  o.same_answer_px = -0.5;
+  o.consistency.same_answer_px = -0.5;
   EXPECT_NE(o.validate().message().find("same_answer_px"), std::string::npos);
   o = LandmarkOptions();
-  o.prior_real_lone = 1.0;
-  EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
-  o.prior_real_lone = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
+  o.tracker.odometry_noise.rot_sigma_per_m = 2.0;
+  EXPECT_EQ(o.validate().message(),
+            "landmarks.tracker.odometry_noise.rot_sigma_per_m = 2; must be in [0, 1]");
   o = LandmarkOptions();
-  o.min_parallax_deg = 90.0;
+  // Upper bounds the code can honour: counts far inside int, caps the memory can hold.
+  o.tracker.max_confirmed = std::numeric_limits<int>::max();
+  EXPECT_NE(o.validate().message().find("landmarks.tracker.max_confirmed"), std::string::npos);
+  o = LandmarkOptions();
+  o.tracker.gate_chi2 = 1e300;
+  EXPECT_NE(o.validate().message().find("landmarks.tracker.gate_chi2"), std::string::npos);
+  o = LandmarkOptions();
+  o.seen_count.min_observations = 0;
+  EXPECT_NE(o.validate().message().find("landmarks.seen_count.min_observations"),
+            std::string::npos);
+  o = LandmarkOptions();
+  o.culling.decision_frames = std::numeric_limits<int>::max();
+  EXPECT_NE(o.validate().message().find("landmarks.culling.decision_frames"), std::string::npos);
+  o = LandmarkOptions();
+  o.inlier_ratio.prune_inlier_ratio = 0.7;
+  EXPECT_NE(o.validate().message().find("landmarks.inlier_ratio.prune_inlier_ratio"),
+            std::string::npos);
+  o = LandmarkOptions();
+  o.refine.huber = 0.0;
+  EXPECT_NE(o.validate().message().find("landmarks.refine.huber"), std::string::npos);
+  o = LandmarkOptions();
+  o.consistency.min_parallax_deg = 90.0;
   EXPECT_NE(o.validate().message().find("min_parallax_deg"), std::string::npos);
-  o.min_parallax_deg = std::numeric_limits<double>::quiet_NaN();
+  o.consistency.min_parallax_deg = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(o.validate().message().find("min_parallax_deg"), std::string::npos);
   Policy p;
   EXPECT_TRUE(parsePolicy("seen-count", &p).isOk());
