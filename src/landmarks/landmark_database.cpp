@@ -19,14 +19,12 @@ double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 }  // namespace
 
 LandmarkDatabase::LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options)
-    : rig_(rig),
-      options_(options),
-      T_b_cl_(rig.T_b_cl),
-      min_parallax_rad_(static_cast<float>(options.consistency.min_parallax_deg * M_PI / 180.0)) {
+    : rig_(rig), options_(options), T_b_cl_(rig.T_b_cl) {
   const Status rig_status = rig.validate();
   TWOCAM_CHECK(rig_status.isOk()) << rig_status.message();
   const Status options_status = options.validate();
   TWOCAM_CHECK(options_status.isOk()) << options_status.message();
+  policy_ = makeConfirmationPolicy(rig, options);
 }
 
 Status LandmarkDatabase::update(int32_t frame,
@@ -112,6 +110,13 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
     e.T_w_cl = T_w_cl_;
   }
   T_cl_w_ = T_w_cl_.inverse();
+  frame_ctx_.frame = frame;
+  frame_ctx_.t_ns = t_ns;
+  frame_ctx_.odom_pose = odom_pose;
+  frame_ctx_.T_w_cl = T_w_cl_;
+  frame_ctx_.T_cl_w = T_cl_w_;
+  frame_ctx_.path_m = path_m_;
+  frame_ctx_.turn_rad = turn_rad_;
 
   // Per-frame hypothesis index: the hypotheses counting-sorted (O(N)) into cells one image row
   // tall and kCellWidthPx wide, row-major, so that the cells a gate spans in one row form one
@@ -183,13 +188,14 @@ uint32_t LandmarkDatabase::allocateSlot() {
   l.observations = std::move(keep);
   l.id = next_id_++;
   slot_of_id_.emplace(l.id, slot);
+  policy_->onAllocate(slot);
   return slot;
 }
 
 void LandmarkDatabase::releaseSlot(uint32_t slot, FrameReport* report) {
   Landmark& l = slots_[slot];
   if (l.state == LandmarkState::kFree) return;
-  removeFromGroup(slot);
+  policy_->onRelease(slot, l);
   if (l.state == LandmarkState::kCandidate) --num_candidates_;
   if (l.state == LandmarkState::kConfirmed) --num_confirmed_;
   l.state = LandmarkState::kFree;
@@ -203,46 +209,6 @@ void LandmarkDatabase::releaseSlot(uint32_t slot, FrameReport* report) {
   }
 }
 
-uint32_t LandmarkDatabase::allocateGroup() {
-  if (!free_groups_.empty()) {
-    const uint32_t g = free_groups_.back();
-    free_groups_.pop_back();
-    groups_[g] = RivalGroup();
-    return g;
-  }
-  groups_.emplace_back();
-  return static_cast<uint32_t>(groups_.size() - 1);
-}
-
-void LandmarkDatabase::removeFromGroup(uint32_t slot) {
-  Landmark& l = slots_[slot];
-  if (l.group == 0) return;  // group index 0 means "none"; real groups are stored at g + 1
-  RivalGroup& g = groups_[l.group - 1];
-  for (int i = 0; i < g.count; ++i) {
-    if (g.members[i] == slot) {
-      g.removed_mass += static_cast<double>(l.prior) * std::exp(static_cast<double>(l.evidence));
-      g.members[i] = g.members[g.count - 1];
-      --g.count;
-      break;
-    }
-  }
-  if (g.count == 0) free_groups_.push_back(l.group - 1);
-  l.group = 0;
-}
-
-void LandmarkDatabase::normaliseGroup(uint32_t group) {
-  const RivalGroup& g = groups_[group];
-  double prior[RivalGroup::kMaxMembers];
-  double evidence[RivalGroup::kMaxMembers];
-  double prob[RivalGroup::kMaxMembers];
-  for (int i = 0; i < g.count; ++i) {
-    prior[i] = slots_[g.members[i]].prior;
-    evidence[i] = slots_[g.members[i]].evidence;
-  }
-  normaliseRivals(prior, evidence, g.count, g.none_mass, g.removed_mass, prob);
-  for (int i = 0; i < g.count; ++i) slots_[g.members[i]].confidence = static_cast<float>(prob[i]);
-}
-
 void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
                                   const StereoHypotheses& /*hyps*/) {
   predictions_.clear();
@@ -250,7 +216,7 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
   associated_.assign(slots_.size(), 0);
   contradicted_.assign(slots_.size(), 0);
   probed_.assign(slots_.size(), 0);
-  informative_.assign(slots_.size(), 0);
+  policy_->beginFrame(slots_.size());
   const double border = options_.tracker.visibility_border_px;
   const double g = std::sqrt(options_.tracker.gate_chi2);
   const double ellipsoid = 4.0 / 3.0 * M_PI * g * g * g;
@@ -320,8 +286,7 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       float best_d2 = gate;
       // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
       // than one the association is ambiguous and is not made (see below).
-      const bool count_points = pass == 0 && options_.policy == Policy::kConsistency &&
-                                options_.consistency.unambiguous_confirmed_hits;
+      const bool count_points = pass == 0 && policy_->rejectsAmbiguousConfirmedHits();
       uint32_t first_point = UINT32_MAX;
       bool ambiguous = false;
       // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
@@ -390,8 +355,7 @@ const std::vector<Corner>& LandmarkDatabase::probeRequests() {
   probe_requests_built_ = true;
   probe_pixels_.clear();
   probe_prediction_.clear();
-  if (!options_.consistency.probe_unseen || options_.policy != Policy::kConsistency)
-    return probe_pixels_;
+  if (!policy_->probesUnseen()) return probe_pixels_;
   for (uint32_t i = 0; i < predictions_.size(); ++i) {
     const Prediction& p = predictions_[i];
     if (p.confirmed || associated_[p.slot]) continue;
@@ -439,7 +403,7 @@ Status LandmarkDatabase::addProbeResults(const StereoHypotheses& measured) {
     const float dd = h.d_px - p.d;
     // Written so that a non-finite disparity from the probe fails the gate too.
     if (!(du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d <= gate)) continue;
-    if (!rowSupported(h)) continue;
+    if (!policy_->acceptsProbeAnswer(h)) continue;
     probed_[p.slot] = 1;
     ++frame_report_->probe_found;
   }
@@ -452,53 +416,16 @@ Eigen::Isometry3d LandmarkDatabase::anchorCameraPose(const Landmark& l) const {
   return cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_);
 }
 
-bool LandmarkDatabase::rowSupported(const DisparityHypothesis& h) const {
-  return h.row_span_px <= std::max(options_.consistency.max_row_span_px,
-                                   options_.consistency.max_row_span_relative * h.d_px);
-}
-
 bool LandmarkDatabase::applyObservation(uint32_t slot,
                                         const DisparityHypothesis& h,
                                         const Corner& c) {
   Landmark& l = slots_[slot];
-  if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
-    const Eigen::Isometry3d T_w_anchor = anchorCameraPose(l);
-    const AnchorCheck check = checkAgainstAnchor(options_,
-                                                 rig_,
-                                                 T_w_anchor,
-                                                 l.anchor.u_px,
-                                                 l.anchor.v_px,
-                                                 l.anchor.d_px,
-                                                 T_cl_w_,
-                                                 c.u_px,
-                                                 c.v_px,
-                                                 h.d_px,
-                                                 path_m_ - l.path_at_anchor_m,
-                                                 turn_rad_ - l.turn_at_anchor_rad,
-                                                 l.own_phantoms ? l.phantom_d_px : nullptr);
-    const bool consistent =
-        check.valid && check.mahalanobis2 <= options_.consistency.anchor_gate_chi2;
-    informative_[slot] = check.discriminative ? 1 : 0;
-    if (!consistent) {
-      // Evidence against the candidate, but not an observation of it: the track stays where the
-      // anchor says it should be, so a spurious candidate cannot hop onto other points.
-      contradicted_[slot] = 1;
-      return false;
-    }
-    // Verification: the consistent re-observations together favour this candidate over either
-    // phantom by verify_llr (docs/landmarks.md, "Verification").
-    for (int k = 0; k < 2; ++k) {
-      l.phantom_llr[k] = static_cast<float>(std::min(
-          kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
-    }
-    if (std::min(l.phantom_llr[0], l.phantom_llr[1]) >= options_.consistency.verify_llr)
-      l.verified = true;
-    if (l.max_parallax_rad < min_parallax_rad_) {  // only needed until the rule is met
-      const double parallax = parallaxAngle(l.p_w, T_w_anchor.translation(), T_w_cl_.translation());
-      l.max_parallax_rad = std::max(l.max_parallax_rad, static_cast<float>(parallax));
-    }
+  if (!policy_->onAssociation(slot, l, h, c, frame_ctx_, *this)) {
+    // Refused by the policy (consistency: the observation contradicts the candidate's anchor):
+    // a miss, not an observation.
+    contradicted_[slot] = 1;
+    return false;
   }
-  if (l.state == LandmarkState::kCandidate && !rowSupported(h)) ++l.n_row_unsupported;
   if (l.state == LandmarkState::kCandidate) {
     // Observations feed the refinement at confirmation; a confirmed landmark keeps none.
     Observation obs;
@@ -520,71 +447,27 @@ bool LandmarkDatabase::applyObservation(uint32_t slot,
   if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(c.u_px, c.v_px), h.d_px)) {
     l.p_w_last = T_w_cl_ * *p_cl;
     hot_[slot].p_w_last = l.p_w_last;
-    if (options_.policy == Policy::kInlierRatio && l.state == LandmarkState::kCandidate) {
-      // The measurement as an inverse depth along the anchor ray (SVO's seed parametrisation).
-      const Eigen::Vector3d p_anchor =
-          cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_).inverse() * l.p_w_last;
-      if (p_anchor.z() > options_.tracker.min_depth_m) {
-        const double fb = rig_.fx_px * rig_.baseline_m;
-        const double ratio = p_cl->z() / p_anchor.z();
-        const double tau = ratio * ratio * options_.tracker.disparity_sigma_px / fb;
-        SvoSeed seed{l.svo_mu, l.svo_sigma2, l.svo_a, l.svo_b, l.svo_range};
-        if (updateSvoSeed(1.0 / p_anchor.z(), tau * tau, &seed)) {
-          l.svo_mu = static_cast<float>(seed.mu);
-          l.svo_sigma2 = static_cast<float>(seed.sigma2);
-          l.svo_a = static_cast<float>(seed.a);
-          l.svo_b = static_cast<float>(seed.b);
-        }
-      }
-    }
+    policy_->onMeasured(slot, l, *p_cl);
   }
   return true;
 }
 
 void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
-  // 1. Evidence from this frame's hits and misses (predicted visible landmarks only).
-  groups_touched_.clear();
-  group_touched_flag_.resize(groups_.size(), 0);
+  // 1. Misses of this frame's predicted visible landmarks; the policy turns hits and misses
+  // into evidence.
   for (const Prediction& p : predictions_) {
-    Landmark& l = slots_[p.slot];
-    const bool hit = associated_[p.slot] != 0;
     // Found by the probe at the predicted depth: neither seen nor missed (probe_unseen).
     if (probed_[p.slot]) continue;
-    if (!hit || contradicted_[p.slot]) ++l.consecutive_misses;
-    if (options_.policy != Policy::kConsistency) continue;
-    if (path_m_ - l.path_at_last_evidence_m < options_.consistency.evidence_step_m) continue;
-    l.path_at_last_evidence_m = path_m_;
-    if (!hit) {
-      l.evidence += static_cast<float>(
-          missEvidence(options_.consistency.detection_prob, p.p_false_hit_per_hyp));
-    } else if (contradicted_[p.slot]) {
-      l.evidence += static_cast<float>(options_.consistency.contradiction_evidence);
-    } else if (informative_[p.slot] || l.state == LandmarkState::kConfirmed) {
-      l.evidence += static_cast<float>(hitEvidence(options_.consistency.detection_prob,
-                                                   p.p_false_hit_per_hyp,
-                                                   options_.consistency.max_hit_evidence));
-    } else {
-      // Before the motion since its anchor could tell its depth from a rival's, a re-observation
-      // only shows the corner is stable: a periodic-texture phantom reappears just the same.
-      l.evidence += static_cast<float>(options_.consistency.stability_evidence);
-    }
-    if (l.group != 0 && !group_touched_flag_[l.group - 1]) {
-      group_touched_flag_[l.group - 1] = 1;
-      groups_touched_.push_back(l.group - 1);
-    }
-    if (l.group == 0) {
-      // A confirmed landmark (no rivals left): plain log-odds with its prior.
-      const double mass = l.prior * std::exp(static_cast<double>(l.evidence));
-      l.confidence = static_cast<float>(mass / (mass + noneMass()));
-    }
+    if (associated_[p.slot] == 0 || contradicted_[p.slot]) ++slots_[p.slot].consecutive_misses;
   }
-  for (uint32_t g : groups_touched_) {
-    group_touched_flag_[g] = 0;
-    if (groups_[g].count > 0) normaliseGroup(g);
-  }
+  FrameOutcome outcome;
+  outcome.predictions = &predictions_;
+  outcome.associated = associated_.data();
+  outcome.contradicted = contradicted_.data();
+  outcome.probed = probed_.data();
+  policy_->scoreFrame(outcome, frame_ctx_, &slots_);
 
-  // 2. Policy rules and life cycle of candidates.
-  const double t_s = static_cast<double>(t_ns_) * 1e-9;
+  // 2. Life cycle, then the policy's rule for the candidates that are still live.
   for (uint32_t s = 0; s < slots_.size(); ++s) {
     // A confirmed landmark's misses change only when it is predicted visible.
     const LandmarkState state = hot_[s].state;
@@ -592,10 +475,7 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
       continue;
     Landmark& l = slots_[s];
     if (l.state == LandmarkState::kConfirmed) {
-      if (l.consecutive_misses > options_.tracker.max_confirmed_misses) {
-        releaseSlot(s, report);
-        continue;
-      }
+      if (l.consecutive_misses > options_.tracker.max_confirmed_misses) releaseSlot(s, report);
       continue;
     }
     if (l.state != LandmarkState::kCandidate) continue;
@@ -604,85 +484,26 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
       releaseSlot(s, report);
       continue;
     }
-    bool confirm_now = false;
-    bool prune_now = false;
-    switch (options_.policy) {
-      case Policy::kConsistency: {
-        if (l.confidence < options_.consistency.prune_prob && l.path_at_last_evidence_m > 0.0) {
-          prune_now = true;
-        } else {
-          confirm_now =
-              (l.verified || l.rivals_at_creation == 1) &&
-              l.confidence >= options_.consistency.confirm_prob &&
-              l.n_obs >= options_.consistency.min_observations &&
-              l.max_parallax_rad >= min_parallax_rad_ &&
-              l.n_row_unsupported <= options_.consistency.max_row_unsupported_fraction * l.n_obs;
-        }
+    switch (policy_->decide(s, &l, frame_ctx_)) {
+      case ConfirmationPolicy::Decision::kPrune:
+        releaseSlot(s, report);
         break;
-      }
-      case Policy::kWtaLrc:
-        confirm_now = true;  // accepted at once (seeding keeps only LR-consistent best matches)
+      case ConfirmationPolicy::Decision::kConfirm:
+        confirm(s, report);
         break;
-      case Policy::kSeenCount: {
-        const double age_s = t_s - static_cast<double>(l.first_t_ns) * 1e-9;
-        l.confidence = std::min(
-            1.0f,
-            static_cast<float>(l.n_obs) / static_cast<float>(options_.seen_count.min_observations));
-        if (l.n_obs >= options_.seen_count.min_observations &&
-            age_s <= options_.seen_count.window_s) {
-          confirm_now = true;
-        } else if (age_s > options_.seen_count.window_s) {
-          prune_now = true;
-        }
+      case ConfirmationPolicy::Decision::kKeep:
         break;
-      }
-      case Policy::kCulling: {
-        const float ratio =
-            static_cast<float>(l.n_obs) / static_cast<float>(std::max(1, l.n_visible));
-        l.confidence = std::min(1.0f, ratio);
-        if (frame_ - l.first_frame >= options_.culling.decision_frames) {
-          if (ratio >= options_.culling.min_found_ratio &&
-              l.n_obs >= options_.culling.min_observations) {
-            confirm_now = true;
-          } else {
-            prune_now = true;
-          }
-        }
-        break;
-      }
-      case Policy::kInlierRatio: {
-        const float ratio = l.svo_a / (l.svo_a + l.svo_b);
-        l.confidence = ratio;
-        if (ratio < options_.inlier_ratio.prune_inlier_ratio) {
-          prune_now = true;
-        } else if (std::sqrt(l.svo_sigma2) <
-                       options_.inlier_ratio.converged_sigma_fraction * l.svo_range &&
-                   ratio >= options_.inlier_ratio.min_inlier_ratio) {
-          confirm_now = true;
-        }
-        break;
-      }
-    }
-    if (prune_now) {
-      releaseSlot(s, report);
-    } else if (confirm_now) {
-      confirm(s, report);
     }
   }
 }
 
 void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   Landmark& l = slots_[slot];
-  if (options_.policy == Policy::kConsistency && l.group != 0) {
-    // At most one hypothesis of a corner is real: confirming one retires its rivals.
-    const RivalGroup g = groups_[l.group - 1];
-    for (int i = 0; i < g.count; ++i) {
-      if (g.members[i] != slot && slots_[g.members[i]].state == LandmarkState::kCandidate) {
-        releaseSlot(g.members[i], report);
-      }
-    }
+  policy_->rivalsToRetire(slot, &rivals_);
+  for (uint32_t r : rivals_) {
+    if (slots_[r].state == LandmarkState::kCandidate) releaseSlot(r, report);
   }
-  removeFromGroup(slot);
+  policy_->onConfirmed(slot);
   l.state = LandmarkState::kConfirmed;
   hot_[slot].state = LandmarkState::kConfirmed;
   l.confirmed_frame = frame_;
@@ -697,7 +518,7 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
     if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk)
       ++report->refined;
   }
-  // Confirmed landmarks are not re-refined (see LandmarkOptions::refine), so their observations
+  // Confirmed landmarks are not re-refined (see RefinementOptions::enabled), so their observations
   // are not needed any more: about 1 kB per landmark, and no per-hit copying.
   std::vector<Observation>().swap(l.observations);
 }
@@ -716,33 +537,19 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
         hyps.hypotheses[point.first_hypothesis].window_shift_px != 0) {
       continue;  // best match from a shifted window: the corner is on a depth edge
     }
-    uint32_t chosen[RivalGroup::kMaxMembers];
+    uint32_t chosen[kMaxRivals];
     int n = 0;
-    for (uint32_t k = 0; k < point.num_hypotheses && n < RivalGroup::kMaxMembers; ++k) {
+    for (uint32_t k = 0; k < point.num_hypotheses && n < kMaxRivals; ++k) {
       const uint32_t j = point.first_hypothesis + k;
       const DisparityHypothesis& h = hyps.hypotheses[j];
       if (!(h.d_px > 0.0f) || fb / h.d_px < options_.tracker.min_depth_m) continue;
-      if (options_.policy == Policy::kWtaLrc && (h.rank != 0 || !h.lr_consistent)) continue;
-      if (options_.policy == Policy::kConsistency) {
-        // A cheaper hypothesis within same_answer_px stands for this one: the same answer,
-        // which as a rival would take half the belief and never be told apart by motion.
-        bool twin = false;
-        for (int i = 0; i < n; ++i) {
-          twin = twin || std::abs(hyps.hypotheses[chosen[i]].d_px - h.d_px) <=
-                             options_.consistency.same_answer_px;
-        }
-        if (twin) continue;
-      }
+      if (!policy_->seeds(h) || policy_->sameAnswerAsChosen(hyps, chosen, n, h)) continue;
       chosen[n++] = j;
     }
     if (n == 0) continue;
     double weight_sum = 0.0;
     for (int i = 0; i < n; ++i) weight_sum += hyps.hypotheses[chosen[i]].lr_consistent ? 2.0 : 1.0;
-    const uint32_t g = options_.policy == Policy::kConsistency ? allocateGroup() + 1 : 0;
-    // Written as 1 - noneMass() (not prior_real) to keep the outputs of the time when a lone
-    // point had its own prior bit for bit.
-    const double prior_real = 1.0 - noneMass();
-    if (g != 0) groups_[g - 1].none_mass = 1.0 - prior_real;
+    policy_->beginSeedGroup(n);
     for (int i = 0; i < n; ++i) {
       const DisparityHypothesis& h = hyps.hypotheses[chosen[i]];
       const auto p_cl =
@@ -763,44 +570,26 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       l.observations.push_back(l.anchor);
       l.first_frame = l.last_seen_frame = frame_;
       l.first_t_ns = t_ns_;
-      l.path_at_last_seen_m = l.path_at_last_evidence_m = l.path_at_anchor_m = path_m_;
-      l.turn_at_anchor_rad = turn_rad_;
+      l.path_at_last_seen_m = path_m_;
       l.turn_at_last_seen_rad = turn_rad_;
       l.n_obs = 1;
-      l.n_row_unsupported = rowSupported(h) ? 0 : 1;
       l.n_visible = 1;
-      l.rivals_at_creation = static_cast<uint8_t>(n);
-      l.own_phantoms = options_.consistency.verify_own_rivals && point.complete;
-      if (l.own_phantoms) {
-        // Every hypothesis of the corner is a possible real point, also those not seeded (too
-        // near, or at zero disparity, whose phantom is then impossible); those within
-        // same_answer_px are the candidate's own answer.
-        const auto same = static_cast<float>(options_.consistency.same_answer_px);
-        for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
-          const float d = hyps.hypotheses[point.first_hypothesis + k].d_px;
-          if (d < h.d_px - same && d > l.phantom_d_px[0]) l.phantom_d_px[0] = d;
-          if (d > h.d_px + same && (l.phantom_d_px[1] == 0.0f || d < l.phantom_d_px[1])) {
-            l.phantom_d_px[1] = d;
-          }
-        }
-      }
-      l.prior = static_cast<float>(prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);
-      l.confidence = l.prior;
-      l.svo_range = static_cast<float>(1.0 / options_.tracker.min_depth_m);
-      l.svo_mu = static_cast<float>(1.0 / p_cl->z());
-      l.svo_sigma2 = l.svo_range * l.svo_range / 36.0f;
-      if (g != 0) {
-        RivalGroup& group = groups_[g - 1];
-        group.members[group.count++] = slot;
-        l.group = g;
-      }
+      SeedInfo info;
+      info.point = &point;
+      info.hypotheses = &hyps;
+      info.h = &h;
+      info.rivals = n;
+      info.weight = h.lr_consistent ? 2.0 : 1.0;
+      info.weight_sum = weight_sum;
+      info.z_cl_m = p_cl->z();
+      policy_->onSeed(slot, &l, info, frame_ctx_);
       report->hypothesis_landmark[chosen[i]] = static_cast<int32_t>(slot);
       report->hypothesis_landmark_id[chosen[i]] = l.id;
       report->created_ids.push_back(l.id);
       report->created_slots.push_back(slot);
       report->created_hypotheses.push_back(chosen[i]);
       ++report->seeded;
-      if (options_.policy == Policy::kWtaLrc) confirm(slot, report);
+      if (policy_->confirmsAtSeed()) confirm(slot, report);
     }
   }
 }

@@ -1,7 +1,9 @@
 #pragma once
 /// The landmark database (Paper A §5.5, "spurious matching"): every stereo hypothesis becomes a
-/// candidate 3D landmark; wheel odometry predicts where each should reappear; hits, misses and
-/// rivalry between hypotheses of the same corner decide which ones are confirmed.
+/// candidate 3D landmark; wheel odometry predicts where each should reappear. The database is
+/// the policy-agnostic tracker (slots, prediction, gating, association, life cycle, caps, stable
+/// landmark ids); what hits and misses mean for a candidate, and when it is confirmed, is the
+/// confirmation policy's (landmarks/confirmation_policy.h, one implementation per policy).
 /// Model, parameters and their defaults: docs/landmarks.md.
 ///
 /// Frames: w = odometry world frame (equals the true world at the first frame), b = robot body,
@@ -10,6 +12,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -17,87 +20,11 @@
 #include "common/frames.h"
 #include "common/rig.h"
 #include "common/status.h"
+#include "landmarks/confirmation_policy.h"
+#include "landmarks/landmark.h"
 #include "landmarks/options.h"
 
 namespace twocam::landmarks {
-
-/// One associated stereo measurement of a landmark, with the odometry pose of its frame.
-struct Observation {
-  int32_t frame = 0;
-  float u_px = 0.0f;
-  float v_px = 0.0f;
-  float d_px = 0.0f;
-  Pose2 odom_pose;
-};
-
-enum class LandmarkState : uint8_t { kFree, kCandidate, kConfirmed };
-
-/// A landmark as the database keeps it. Plain data; read through LandmarkDatabase::landmarks().
-struct Landmark {
-  uint64_t id = 0;
-  LandmarkState state = LandmarkState::kFree;
-  /// Position estimate in the odometry world frame [m]: the anchor's triangulation until the
-  /// landmark is confirmed, then the multi-view refinement.
-  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();
-  /// Position from the latest observation [m]; predictions start here so that only the odometry
-  /// error since the landmark was last seen enters the gate.
-  Eigen::Vector3d p_w_last = Eigen::Vector3d::Zero();
-  /// The observation that created the landmark (frames counted from 0 in log order).
-  Observation anchor;
-  int32_t first_frame = 0;
-  int32_t confirmed_frame = -1;
-  int32_t last_seen_frame = 0;
-  int64_t first_t_ns = 0;
-  /// Odometry path length and absolute turn (since the run started) when last seen and when
-  /// evidence was last counted [m], [rad].
-  double path_at_last_seen_m = 0.0;
-  double turn_at_last_seen_rad = 0.0;
-  double path_at_last_evidence_m = 0.0;
-  double path_at_anchor_m = 0.0;
-  double turn_at_anchor_rad = 0.0;
-  /// Consistency policy: the consistent re-observations favour this candidate over the
-  /// phantoms of a rival depth by at least LandmarkOptions::verify_llr (see checkAgainstAnchor).
-  bool verified = false;
-  /// Consistency policy: largest parallax of a consistent re-observation so far, the angle at
-  /// the anchor point between the anchor's and the observation's left-camera centres [rad];
-  /// no longer updated once it reaches LandmarkOptions::min_parallax_deg.
-  float max_parallax_rad = 0.0f;
-  /// Number of hypotheses of the corner when the candidate was created (1 = no rivals).
-  uint8_t rivals_at_creation = 1;
-  /// Consistency policy: AnchorCheck::phantom_llr summed over the consistent re-observations,
-  /// for the phantom below and above the anchor disparity [nats].
-  float phantom_llr[2] = {0.0f, 0.0f};
-  /// Consistency policy, complete hypothesis lists (LandmarkOptions::verify_own_rivals): the
-  /// disparities of the nearest rival below and above the anchor's [px], the real points those
-  /// phantoms stand for; 0 = no rival on that side. Unused (own_phantoms false) otherwise.
-  float phantom_d_px[2] = {0.0f, 0.0f};
-  bool own_phantoms = false;
-  /// Rival group (hypotheses of the same corner in the creating frame) and this member's prior.
-  uint32_t group = 0;
-  float prior = 0.0f;
-  /// Accumulated evidence log-likelihood ratio (consistency policy) [nats].
-  float evidence = 0.0f;
-  /// Policy-specific confidence in [0, 1] (consistency: rival-normalised existence probability).
-  float confidence = 0.0f;
-  int32_t n_obs = 0;
-  int32_t n_visible = 0;
-  int32_t consecutive_misses = 0;
-  /// Observations (anchor included) whose hypothesis lacked row support (see
-  /// LandmarkOptions::max_row_span_px).
-  int32_t n_row_unsupported = 0;
-  int32_t frames_out_of_view = 0;
-  /// SVO seed (inlier-ratio policy): inverse depth along the anchor ray [1/m], its variance, the
-  /// Beta parameters and the inverse-depth range.
-  float svo_mu = 0.0f;
-  float svo_sigma2 = 0.0f;
-  float svo_a = 10.0f;
-  float svo_b = 10.0f;
-  float svo_range = 0.0f;
-  /// Candidates: the anchor plus the most recent observations (at most
-  /// LandmarkOptions::max_observations), for the refinement at confirmation. Emptied when the
-  /// landmark is confirmed (confirmed landmarks are not re-refined).
-  std::vector<Observation> observations;
-};
 
 /// What happened in one update.
 struct FrameReport {
@@ -109,7 +36,7 @@ struct FrameReport {
   int confirmed = 0;
   int pruned = 0;
   int refined = 0;
-  /// Candidates re-measured at their predicted pixel (LandmarkOptions::probe_unseen), and how
+  /// Candidates re-measured at their predicted pixel (ConsistencyOptions::probe_unseen), and how
   /// many of those measurements found them (one answer in the gate, with row support).
   int probed = 0;
   int probe_found = 0;
@@ -136,15 +63,15 @@ struct FrameReport {
   std::vector<int32_t> hypothesis_landmark;
 };
 
-/// The database: candidates and confirmed landmarks with their confidence. State only; the maths
+/// The tracker: candidates and confirmed landmarks with their confidence. State only; the maths
 /// (prediction, gating, evidence, refinement) are free functions in landmark_model.h and refine.h.
-class LandmarkDatabase {
+class LandmarkDatabase final : public AnchorPoses {
  public:
   /// CHECK-fails on an invalid rig or options (validate them first: a programmer error here).
   LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options);
 
   /// Processes one stereo frame without re-measuring unseen candidates: beginFrame() then
-  /// finishFrame(). Replayed hypotheses (no images) use this; LandmarkOptions::probe_unseen is
+  /// finishFrame(). Replayed hypotheses (no images) use this; ConsistencyOptions::probe_unseen is
   /// then idle. Errors as beginFrame().
   Status update(int32_t frame,
                 int64_t t_ns,
@@ -153,7 +80,7 @@ class LandmarkDatabase {
                 FrameReport* report);
 
   /// One frame in steps, so that the caller can re-measure the unseen candidates on the frame's
-  /// images (LandmarkOptions::probe_unseen) between association and scoring:
+  /// images (ConsistencyOptions::probe_unseen) between association and scoring:
   ///   beginFrame()      predicts every live landmark with the odometry pose and associates;
   ///   probeRequests()   the predicted pixels of the candidates predicted visible but not
   ///                     associated (empty unless probe_unseen and the consistency policy);
@@ -189,40 +116,23 @@ class LandmarkDatabase {
   [[nodiscard]] int numConfirmed() const { return num_confirmed_; }
   [[nodiscard]] const LandmarkOptions& options() const { return options_; }
   [[nodiscard]] const StereoRig& rig() const { return rig_; }
+  /// The confirmation policy (options().policy) with its per-landmark state.
+  [[nodiscard]] const ConfirmationPolicy& policy() const { return *policy_; }
+
+  /// T_w_cl of the landmark's anchor frame, from the ring of recent frames' poses when it is
+  /// there (the anchor check needs it for every candidate association).
+  [[nodiscard]] Eigen::Isometry3d anchorCameraPose(const Landmark& l) const override;
 
  private:
-  struct RivalGroup {
-    static constexpr int kMaxMembers = 8;
-    uint32_t members[kMaxMembers] = {};
-    uint8_t count = 0;
-    /// Mass of members that left the group (pi_j exp(L_j)) and of "none is real".
-    double removed_mass = 0.0;
-    double none_mass = 0.0;
-  };
-  struct Prediction {
-    uint32_t slot;
-    float u, v, d;
-    float inv_var_u, inv_var_v, inv_var_d;
-    float gate_u, gate_v;
-    float p_false_hit_per_hyp;
-    bool confirmed;  // the landmark's state when predicted (read without touching slots_)
-  };
+  /// Candidates seeded from one salient point at most (its rivals).
+  static constexpr int kMaxRivals = 8;
 
   uint32_t allocateSlot();
   void releaseSlot(uint32_t slot, FrameReport* report);
-  uint32_t allocateGroup();
-  void removeFromGroup(uint32_t slot);
-  void normaliseGroup(uint32_t group);
   void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
   void associate(const StereoHypotheses& hyps, FrameReport* report);
-  /// Returns false when the observation contradicts the candidate's anchor (not recorded).
-  [[nodiscard]] bool rowSupported(const DisparityHypothesis& h) const;
-  /// Prior mass of "none of a point's hypotheses is real": 1 - prior_real.
-  [[nodiscard]] double noneMass() const { return 1.0 - options_.consistency.prior_real; }
+  /// Returns false when the policy refused the observation (not recorded).
   bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
-  /// T_w_cl of the landmark's anchor frame, from the ring of recent frames' poses when it is
-  /// there (the anchor check needs it for every candidate association).
-  [[nodiscard]] Eigen::Isometry3d anchorCameraPose(const Landmark& l) const;
   void scoreAndLifeCycle(FrameReport* report);
   void confirm(uint32_t slot, FrameReport* report);
   void seed(const StereoHypotheses& hyps, FrameReport* report);
@@ -239,7 +149,7 @@ class LandmarkDatabase {
   StereoRig rig_;
   LandmarkOptions options_;
   Eigen::Isometry3d T_b_cl_;
-  float min_parallax_rad_;  // options_.min_parallax_deg in radians
+  std::unique_ptr<ConfirmationPolicy> policy_;
   std::vector<Landmark> slots_;
   std::vector<HotSlot> hot_;  // parallel to slots_
   /// Camera poses of the last kPoseRingSize frames, indexed by frame % kPoseRingSize.
@@ -250,8 +160,6 @@ class LandmarkDatabase {
   };
   std::vector<PoseRingEntry> pose_ring_ = std::vector<PoseRingEntry>(kPoseRingSize);
   std::vector<uint32_t> free_slots_;
-  std::vector<RivalGroup> groups_;
-  std::vector<uint32_t> free_groups_;
   uint64_t next_id_ = 1;
   int num_candidates_ = 0;
   int num_confirmed_ = 0;
@@ -265,13 +173,12 @@ class LandmarkDatabase {
   Eigen::Isometry3d T_cl_w_ = Eigen::Isometry3d::Identity();
   double path_m_ = 0.0;
   double turn_rad_ = 0.0;
+  FrameContext frame_ctx_;  // the same, as the policy reads it
   std::vector<Prediction> predictions_;
   std::vector<uint8_t> visible_;       // per slot, this frame
   std::vector<uint8_t> associated_;    // per slot, this frame
-  std::vector<uint8_t> contradicted_;  // per slot, this frame: the hit disagreed with the anchor
-  std::vector<uint8_t>
-      informative_;  // per slot, this frame: the motion since the anchor exposes depth
-  std::vector<int32_t> hyp_claim_;  // per hypothesis: prediction index, or -1
+  std::vector<uint8_t> contradicted_;  // per slot, this frame: the policy refused the hit
+  std::vector<int32_t> hyp_claim_;     // per hypothesis: prediction index, or -1
   std::vector<float> hyp_claim_d2_;
   std::vector<int32_t> cell_start_;  // per index cell: first index into grid_items_ / grid_uvd_
   std::vector<int32_t> grid_items_;  // hypothesis indices in cell order
@@ -281,8 +188,7 @@ class LandmarkDatabase {
     uint32_t point_index;
   };
   std::vector<GridEntry> grid_uvd_;
-  std::vector<uint32_t> groups_touched_;
-  std::vector<uint8_t> group_touched_flag_;
+  std::vector<uint32_t> rivals_;     // confirm()'s buffer
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
   // The probe's per-frame buffers (reused): pixels and the prediction each stands for.
   std::vector<Corner> probe_pixels_;

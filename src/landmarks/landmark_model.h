@@ -56,12 +56,12 @@ struct AnchorCheck {
   /// the anchor ray at d_anchor +- max(verify_min_offset_px, verify_relative_offset d_anchor),
   /// a periodic-texture phantom of it (disparity a fixed multiple of the real one) would now be
   /// predicted at least verify_chi2 away from the candidate's own prediction. Decides how much
-  /// a consistent hit counts (LandmarkOptions::max_hit_evidence or stability_evidence).
+  /// a consistent hit counts (ConsistencyOptions::max_hit_evidence or stability_evidence).
   bool discriminative = false;
   /// Log-likelihood ratio [nats] of the observation for the candidate against each of those two
   /// phantoms (disparity below, above): 0.5 (m2 to the phantom's prediction - mahalanobis2),
   /// with the same sigmas. Summed over a candidate's consistent re-observations it decides its
-  /// verification (LandmarkOptions::verify_llr). A phantom whose real point would be behind
+  /// verification (ConsistencyOptions::verify_llr). A phantom whose real point would be behind
   /// the camera cannot exist: kPhantomImpossible.
   double phantom_llr[2] = {0.0, 0.0};
   /// False when the anchor point is behind the current camera (no prediction).

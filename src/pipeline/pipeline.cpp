@@ -80,7 +80,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     return s;
   }
   // Candidates whose corner was not detected are re-measured on this frame's images
-  // (LandmarkOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its
+  // (ConsistencyOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its
   // time counts in the landmark stage.
   if (images != nullptr) {
     const std::vector<Corner>& pixels = db_.probeRequests();

@@ -52,7 +52,7 @@ class Pipeline {
 
   /// One stereo frame with its odometry pose: frontend, then the landmark database's frame in
   /// steps (LandmarkDatabase::beginFrame), with the unassociated candidates re-measured on the
-  /// frame's images (Frontend::measureAt, LandmarkOptions::probe_unseen), then the map. An error
+  /// frame's images (Frontend::measureAt, ConsistencyOptions::probe_unseen), then the map. An error
   /// from the landmark database (NaN pose, time going backwards) leaves the database and map
   /// unchanged: the caller may skip the frame and go on. A frontend error (image of the wrong
   /// size) is returned as well; an error of the re-measurement leaves the frame unscored.
@@ -71,7 +71,7 @@ class Pipeline {
 
   /// Landmarks and map from hypotheses made elsewhere (another matcher, e.g. the OpenCV
   /// reference in pipeline_bench); out->times.frontend_ms stays 0. Copies the hypotheses.
-  /// Without images there is nothing to re-measure, so LandmarkOptions::probe_unseen is idle.
+  /// Without images there is nothing to re-measure, so ConsistencyOptions::probe_unseen is idle.
   Status processHypotheses(int32_t frame,
                            int64_t t_ns,
                            const Pose2& odom_pose,

@@ -277,7 +277,9 @@ TEST(PipelineConfig, EachSectionAlone) {
       {"landmarks: {consistency: {min_observations: 6}}",
        [](const PipelineConfig& c) { return c.landmarks.consistency.min_observations == 6; }},
       {"landmarks: {policy: seen-count}",
-       [](const PipelineConfig& c) { return c.landmarks.policy == landmarks::Policy::kSeenCount; }},
+       [](const PipelineConfig& c) {
+         return std::string(landmarks::policyName(c.landmarks.policy)) == "seen-count";
+       }},
       {"mapping: {max_range_m: 4.5}",
        [](const PipelineConfig& c) { return c.mapping.max_range_m == 4.5; }},
       {"seed: 7", [](const PipelineConfig& c) { return c.seed == 7u; }},
