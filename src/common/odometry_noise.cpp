@@ -1,6 +1,5 @@
 #include "common/odometry_noise.h"
 
-#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -21,18 +20,6 @@ Status OdometryNoise::validate(const char* prefix) const {
     }
   }
   return Status::ok();
-}
-
-OdometryErrorSigma accumulatedOdometrySigma(const OdometryNoise& noise,
-                                            double path_m,
-                                            double turn_rad) {
-  const double s = std::max(0.0, path_m);
-  const double th = std::abs(turn_rad);
-  OdometryErrorSigma out;
-  out.trans_m = noise.trans_sigma_per_sqrt_m * std::sqrt(s) + noise.trans_scale_sigma * s;
-  out.yaw_rad = noise.rot_sigma_per_sqrt_rad * std::sqrt(th) + noise.rot_scale_sigma * th +
-                noise.rot_sigma_per_m * s;
-  return out;
 }
 
 }  // namespace twocam

@@ -56,8 +56,17 @@ struct OdometryErrorSigma {
 
 /// sigma_t and sigma_yaw after driving path_m (clamped at 0) and turning turn_rad (its absolute
 /// value is used) since a reference pose.
-OdometryErrorSigma accumulatedOdometrySigma(const OdometryNoise& noise,
-                                            double path_m,
-                                            double turn_rad);
+/// Inline: the tracker evaluates it for every prediction.
+inline OdometryErrorSigma accumulatedOdometrySigma(const OdometryNoise& noise,
+                                                   double path_m,
+                                                   double turn_rad) {
+  const double s = path_m > 0.0 ? path_m : 0.0;  // std::max(0.0, path_m) without <algorithm>
+  const double th = std::abs(turn_rad);
+  OdometryErrorSigma out;
+  out.trans_m = noise.trans_sigma_per_sqrt_m * std::sqrt(s) + noise.trans_scale_sigma * s;
+  out.yaw_rad = noise.rot_sigma_per_sqrt_rad * std::sqrt(th) + noise.rot_scale_sigma * th +
+                noise.rot_sigma_per_m * s;
+  return out;
+}
 
 }  // namespace twocam

@@ -158,14 +158,17 @@ void ConsistencyPolicy::scoreFrame(const FrameOutcome& outcome,
 ConfirmationPolicy::Decision ConsistencyPolicy::decide(uint32_t slot,
                                                        Landmark* l,
                                                        const FrameContext& /*frame*/) {
-  const State& st = state_[slot];
-  if (l->confidence < options_.prune_prob && st.path_at_last_evidence_m > 0.0) {
+  // The tracker record's fields first: most candidates are decided without their state.
+  if (l->confidence < options_.prune_prob && state_[slot].path_at_last_evidence_m > 0.0) {
     return Decision::kPrune;
   }
-  const bool confirm =
-      (st.verified || st.rivals_at_creation == 1) && l->confidence >= options_.confirm_prob &&
-      l->n_obs >= options_.min_observations && st.max_parallax_rad >= min_parallax_rad_ &&
-      st.n_row_unsupported <= options_.max_row_unsupported_fraction * l->n_obs;
+  if (!(l->confidence >= options_.confirm_prob && l->n_obs >= options_.min_observations)) {
+    return Decision::kKeep;
+  }
+  const State& st = state_[slot];
+  const bool confirm = (st.verified || st.rivals_at_creation == 1) &&
+                       st.max_parallax_rad >= min_parallax_rad_ &&
+                       st.n_row_unsupported <= options_.max_row_unsupported_fraction * l->n_obs;
   return confirm ? Decision::kConfirm : Decision::kKeep;
 }
 

@@ -38,8 +38,8 @@ Status LandmarkDatabase::update(int32_t frame,
 }
 
 const Landmark* LandmarkDatabase::find(uint64_t id) const {
-  const auto it = slot_of_id_.find(id);
-  return it == slot_of_id_.end() ? nullptr : &slots_[it->second];
+  const uint32_t slot = slot_of_id_.find(id);
+  return slot == IdIndex::kNone ? nullptr : &slots_[slot];
 }
 
 Status LandmarkDatabase::beginFrame(int32_t frame,
@@ -187,7 +187,7 @@ uint32_t LandmarkDatabase::allocateSlot() {
   l = Landmark();
   l.observations = std::move(keep);
   l.id = next_id_++;
-  slot_of_id_.emplace(l.id, slot);
+  slot_of_id_.insert(l.id, slot);
   policy_->onAllocate(slot);
   return slot;
 }
@@ -273,6 +273,7 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
   // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
   std::vector<int32_t> pred_hyp(predictions_.size(), -1);
   const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
+  const bool reject_ambiguous = policy_->rejectsAmbiguousConfirmedHits();
   for (int pass = 0; pass < 2; ++pass) {
     const bool wanted = pass == 0;  // confirmed landmarks first
     for (size_t i = 0; i < predictions_.size(); ++i) {
@@ -286,7 +287,7 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       float best_d2 = gate;
       // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
       // than one the association is ambiguous and is not made (see below).
-      const bool count_points = pass == 0 && policy_->rejectsAmbiguousConfirmedHits();
+      const bool count_points = pass == 0 && reject_ambiguous;
       uint32_t first_point = UINT32_MAX;
       bool ambiguous = false;
       // An ambiguous gate is not associated whatever else it holds, so the scan stops at the

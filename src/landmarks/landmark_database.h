@@ -13,7 +13,6 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
-#include <unordered_map>
 #include <vector>
 
 #include "common/features.h"
@@ -21,6 +20,7 @@
 #include "common/rig.h"
 #include "common/status.h"
 #include "landmarks/confirmation_policy.h"
+#include "landmarks/id_index.h"
 #include "landmarks/landmark.h"
 #include "landmarks/options.h"
 
@@ -199,7 +199,7 @@ class LandmarkDatabase final : public AnchorPoses {
   const StereoHypotheses* frame_hyps_ = nullptr;
   FrameReport* frame_report_ = nullptr;
   /// Live landmarks: id -> slot.
-  std::unordered_map<uint64_t, uint32_t> slot_of_id_;
+  IdIndex slot_of_id_;
 };
 
 }  // namespace twocam::landmarks
