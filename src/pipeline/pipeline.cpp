@@ -101,21 +101,21 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   // Map: one ray per confirmed landmark observed in this frame (a landmark is listed once even
   // when several hypotheses of its corner pointed at it).
   const auto t2 = std::chrono::steady_clock::now();
-  const std::vector<landmarks::Landmark>& slots = db_.landmarks();
-  if (slot_mapped_.size() < slots.size()) slot_mapped_.resize(slots.size(), 0);
-  for (int32_t slot : report_.hypothesis_landmark) {
-    if (slot < 0) continue;
-    const landmarks::Landmark& l = slots[static_cast<size_t>(slot)];
-    if (l.state != landmarks::LandmarkState::kConfirmed || slot_mapped_[static_cast<size_t>(slot)])
-      continue;
-    slot_mapped_[static_cast<size_t>(slot)] = 1;
-    out->mapped_points_w.push_back(l.p_w);
-    out->mapped_ids.push_back(l.id);
+  // Read by id (FrameReport::hypothesis_landmark_id); the per-slot flags only deduplicate.
+  const landmarks::Landmark* const first = db_.landmarks().data();
+  if (slot_mapped_.size() < db_.landmarks().size()) slot_mapped_.resize(db_.landmarks().size(), 0);
+  for (uint64_t id : report_.hypothesis_landmark_id) {
+    if (id == 0) continue;
+    const landmarks::Landmark* l = db_.find(id);
+    if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) continue;
+    const auto slot = static_cast<size_t>(l - first);
+    if (slot_mapped_[slot]) continue;
+    slot_mapped_[slot] = 1;
+    out->mapped_points_w.push_back(l->p_w);
+    out->mapped_ids.push_back(l->id);
     out->mapped_slots.push_back(static_cast<uint32_t>(slot));
   }
-  for (int32_t slot : report_.hypothesis_landmark) {
-    if (slot >= 0) slot_mapped_[static_cast<size_t>(slot)] = 0;
-  }
+  for (uint32_t slot : out->mapped_slots) slot_mapped_[slot] = 0;
   out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
   octomap::OcTreeKey origin_key;
   const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()),
