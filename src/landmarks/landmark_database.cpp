@@ -19,23 +19,37 @@ double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 }  // namespace
 
 LandmarkDatabase::LandmarkDatabase(const StereoRig& rig, const LandmarkOptions& options)
-    : rig_(rig),
-      options_(options),
-      T_b_cl_(rig.T_b_cl),
-      min_parallax_rad_(static_cast<float>(options.min_parallax_deg * M_PI / 180.0)) {
+    : rig_(rig), options_(options), T_b_cl_(rig.T_b_cl) {
   const Status rig_status = rig.validate();
   TWOCAM_CHECK(rig_status.isOk()) << rig_status.message();
   const Status options_status = options.validate();
   TWOCAM_CHECK(options_status.isOk()) << options_status.message();
+  policy_ = makeConfirmationPolicy(rig, options);
 }
 
 Status LandmarkDatabase::update(int32_t frame,
                                 int64_t t_ns,
                                 const Pose2& odom_pose,
                                 const StereoHypotheses& hyps,
-                                FrameReport* report,
-                                const DisparityProbe* probe) {
+                                FrameReport* report) {
+  if (Status s = beginFrame(frame, t_ns, odom_pose, hyps, report); !s) return s;
+  finishFrame();
+  return Status::ok();
+}
+
+const Landmark* LandmarkDatabase::find(uint64_t id) const {
+  const uint32_t slot = slot_of_id_.find(id);
+  return slot == IdIndex::kNone ? nullptr : &slots_[slot];
+}
+
+Status LandmarkDatabase::beginFrame(int32_t frame,
+                                    int64_t t_ns,
+                                    const Pose2& odom_pose,
+                                    const StereoHypotheses& hyps,
+                                    FrameReport* report) {
   TWOCAM_CHECK(report != nullptr);
+  frame_hyps_ = nullptr;
+  frame_report_ = nullptr;
   if (!std::isfinite(odom_pose.x_m) || !std::isfinite(odom_pose.y_m) ||
       !std::isfinite(odom_pose.yaw_rad)) {
     std::ostringstream msg;
@@ -73,9 +87,12 @@ Status LandmarkDatabase::update(int32_t frame,
   report->predicted_visible = report->associated = report->seeded = 0;
   report->confirmed = report->pruned = report->refined = 0;
   report->probed = report->probe_found = 0;
+  report->created_ids.clear();
+  report->associated_ids.clear();
   report->created_slots.clear();
   report->created_hypotheses.clear();
   report->removed_ids.clear();
+  report->hypothesis_landmark_id.assign(hyps.hypotheses.size(), 0);
   report->hypothesis_landmark.assign(hyps.hypotheses.size(), -1);
 
   if (has_previous_) {
@@ -93,6 +110,13 @@ Status LandmarkDatabase::update(int32_t frame,
     e.T_w_cl = T_w_cl_;
   }
   T_cl_w_ = T_w_cl_.inverse();
+  frame_ctx_.frame = frame;
+  frame_ctx_.t_ns = t_ns;
+  frame_ctx_.odom_pose = odom_pose;
+  frame_ctx_.T_w_cl = T_w_cl_;
+  frame_ctx_.T_cl_w = T_cl_w_;
+  frame_ctx_.path_m = path_m_;
+  frame_ctx_.turn_rad = turn_rad_;
 
   // Per-frame hypothesis index: the hypotheses counting-sorted (O(N)) into cells one image row
   // tall and kCellWidthPx wide, row-major, so that the cells a gate spans in one row form one
@@ -121,23 +145,29 @@ Status LandmarkDatabase::update(int32_t frame,
           static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px, h.point_index};
     }
   }
-  const double d_range = options_.max_disparity_px - options_.min_disparity_px + 1.0;
+  const double d_range =
+      options_.tracker.max_disparity_px - options_.tracker.min_disparity_px + 1.0;
   hypothesis_density_ = static_cast<double>(hyps.hypotheses.size()) /
                         (static_cast<double>(rig_.width_px) * rig_.height_px * d_range);
 
   predictAll(T_cl_w_, hyps);
   associate(hyps, report);
-  if (probe != nullptr && *probe && options_.probe_unseen &&
-      options_.policy == Policy::kConsistency) {
-    if (Status s = probeUnseen(*probe, report); !s) {
-      return Status::error("frame " + std::to_string(frame) +
-                           ": re-measuring unseen candidates: " + s.message());
-    }
-  }
-  scoreAndLifeCycle(report);
-  seed(hyps, report);
-  enforceCaps(report);
+  frame_hyps_ = &hyps;
+  frame_report_ = report;
+  probe_requests_built_ = false;
+  probe_pixels_.clear();
+  probe_prediction_.clear();
   return Status::ok();
+}
+
+void LandmarkDatabase::finishFrame() {
+  TWOCAM_CHECK(frame_hyps_ != nullptr) << "finishFrame without a successful beginFrame";
+  FrameReport* report = frame_report_;
+  scoreAndLifeCycle(report);
+  seed(*frame_hyps_, report);
+  enforceCaps(report);
+  frame_hyps_ = nullptr;
+  frame_report_ = nullptr;
 }
 
 uint32_t LandmarkDatabase::allocateSlot() {
@@ -157,63 +187,26 @@ uint32_t LandmarkDatabase::allocateSlot() {
   l = Landmark();
   l.observations = std::move(keep);
   l.id = next_id_++;
+  slot_of_id_.insert(l.id, slot);
+  policy_->onAllocate(slot);
   return slot;
 }
 
 void LandmarkDatabase::releaseSlot(uint32_t slot, FrameReport* report) {
   Landmark& l = slots_[slot];
   if (l.state == LandmarkState::kFree) return;
-  removeFromGroup(slot);
+  policy_->onRelease(slot, l);
   if (l.state == LandmarkState::kCandidate) --num_candidates_;
   if (l.state == LandmarkState::kConfirmed) --num_confirmed_;
   l.state = LandmarkState::kFree;
   hot_[slot].state = LandmarkState::kFree;
   l.observations.clear();
+  slot_of_id_.erase(l.id);
   free_slots_.push_back(slot);
   if (report != nullptr) {
     report->removed_ids.push_back(l.id);
     ++report->pruned;
   }
-}
-
-uint32_t LandmarkDatabase::allocateGroup() {
-  if (!free_groups_.empty()) {
-    const uint32_t g = free_groups_.back();
-    free_groups_.pop_back();
-    groups_[g] = RivalGroup();
-    return g;
-  }
-  groups_.emplace_back();
-  return static_cast<uint32_t>(groups_.size() - 1);
-}
-
-void LandmarkDatabase::removeFromGroup(uint32_t slot) {
-  Landmark& l = slots_[slot];
-  if (l.group == 0) return;  // group index 0 means "none"; real groups are stored at g + 1
-  RivalGroup& g = groups_[l.group - 1];
-  for (int i = 0; i < g.count; ++i) {
-    if (g.members[i] == slot) {
-      g.removed_mass += static_cast<double>(l.prior) * std::exp(static_cast<double>(l.evidence));
-      g.members[i] = g.members[g.count - 1];
-      --g.count;
-      break;
-    }
-  }
-  if (g.count == 0) free_groups_.push_back(l.group - 1);
-  l.group = 0;
-}
-
-void LandmarkDatabase::normaliseGroup(uint32_t group) {
-  const RivalGroup& g = groups_[group];
-  double prior[RivalGroup::kMaxMembers];
-  double evidence[RivalGroup::kMaxMembers];
-  double prob[RivalGroup::kMaxMembers];
-  for (int i = 0; i < g.count; ++i) {
-    prior[i] = slots_[g.members[i]].prior;
-    evidence[i] = slots_[g.members[i]].evidence;
-  }
-  normaliseRivals(prior, evidence, g.count, g.none_mass, g.removed_mass, prob);
-  for (int i = 0; i < g.count; ++i) slots_[g.members[i]].confidence = static_cast<float>(prob[i]);
 }
 
 void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
@@ -223,9 +216,9 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
   associated_.assign(slots_.size(), 0);
   contradicted_.assign(slots_.size(), 0);
   probed_.assign(slots_.size(), 0);
-  informative_.assign(slots_.size(), 0);
-  const double border = options_.visibility_border_px;
-  const double g = std::sqrt(options_.gate_chi2);
+  policy_->beginFrame(slots_.size());
+  const double border = options_.tracker.visibility_border_px;
+  const double g = std::sqrt(options_.tracker.gate_chi2);
   const double ellipsoid = 4.0 / 3.0 * M_PI * g * g * g;
   // The visibility test reads only the compact per-slot copies (hot_): most slots are confirmed
   // landmarks out of view, whose full records are then not touched.
@@ -234,11 +227,12 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
     if (hot.state == LandmarkState::kFree) continue;
     const Eigen::Vector3d p_cl = T_cl_w * hot.p_w_last;
     Eigen::Vector3d uvd;
-    const bool in_view = p_cl.z() >= options_.min_depth_m && projectStereo(rig_, p_cl, &uvd) &&
-                         uvd.x() >= border && uvd.x() <= rig_.width_px - 1 - border &&
-                         uvd.y() >= border && uvd.y() <= rig_.height_px - 1 - border &&
-                         uvd.z() >= options_.min_disparity_px - 1.0 &&
-                         uvd.z() <= options_.max_disparity_px + 1.0;
+    const bool in_view = p_cl.z() >= options_.tracker.min_depth_m &&
+                         projectStereo(rig_, p_cl, &uvd) && uvd.x() >= border &&
+                         uvd.x() <= rig_.width_px - 1 - border && uvd.y() >= border &&
+                         uvd.y() <= rig_.height_px - 1 - border &&
+                         uvd.z() >= options_.tracker.min_disparity_px - 1.0 &&
+                         uvd.z() <= options_.tracker.max_disparity_px + 1.0;
     if (!in_view) {
       // Only candidates age out of view; confirmed landmarks are kept until they return.
       if (hot.state == LandmarkState::kCandidate) ++slots_[s].frames_out_of_view;
@@ -248,7 +242,7 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
     l.frames_out_of_view = 0;
     ++l.n_visible;
     visible_[s] = 1;
-    const MeasurementSigma sigma = predictionSigma(options_,
+    const MeasurementSigma sigma = predictionSigma(options_.tracker,
                                                    rig_,
                                                    uvd,
                                                    p_cl.z(),
@@ -274,11 +268,12 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
 void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* report) {
   hyp_claim_.assign(hyps.hypotheses.size(), -1);
   hyp_claim_d2_.assign(hyps.hypotheses.size(), 0.0f);
-  const float gate = static_cast<float>(options_.gate_chi2);
+  const float gate = static_cast<float>(options_.tracker.gate_chi2);
   // Confirmed landmarks choose first: a corner they explain is not given to a candidate.
   // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
   std::vector<int32_t> pred_hyp(predictions_.size(), -1);
   const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
+  const bool reject_ambiguous = policy_->rejectsAmbiguousConfirmedHits();
   for (int pass = 0; pass < 2; ++pass) {
     const bool wanted = pass == 0;  // confirmed landmarks first
     for (size_t i = 0; i < predictions_.size(); ++i) {
@@ -292,8 +287,7 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
       float best_d2 = gate;
       // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
       // than one the association is ambiguous and is not made (see below).
-      const bool count_points = pass == 0 && options_.policy == Policy::kConsistency &&
-                                options_.unambiguous_confirmed_hits;
+      const bool count_points = pass == 0 && reject_ambiguous;
       uint32_t first_point = UINT32_MAX;
       bool ambiguous = false;
       // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
@@ -349,14 +343,20 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
     associated_[slot] = 1;
     if (!applyObservation(slot, h, hyps.points[h.point_index].corner)) continue;  // contradicted
     report->hypothesis_landmark[pred_hyp[i]] = static_cast<int32_t>(slot);
+    report->hypothesis_landmark_id[pred_hyp[i]] = slots_[slot].id;
+    report->associated_ids.push_back(slots_[slot].id);
     ++report->associated;
   }
   report->predicted_visible = static_cast<int>(predictions_.size());
 }
 
-Status LandmarkDatabase::probeUnseen(const DisparityProbe& probe, FrameReport* report) {
+const std::vector<Corner>& LandmarkDatabase::probeRequests() {
+  TWOCAM_CHECK(frame_hyps_ != nullptr) << "probeRequests outside a frame";
+  if (probe_requests_built_) return probe_pixels_;
+  probe_requests_built_ = true;
   probe_pixels_.clear();
   probe_prediction_.clear();
+  if (!policy_->probesUnseen()) return probe_pixels_;
   for (uint32_t i = 0; i < predictions_.size(); ++i) {
     const Prediction& p = predictions_[i];
     if (p.confirmed || associated_[p.slot]) continue;
@@ -366,32 +366,47 @@ Status LandmarkDatabase::probeUnseen(const DisparityProbe& probe, FrameReport* r
     probe_pixels_.push_back(c);
     probe_prediction_.push_back(i);
   }
-  report->probed = static_cast<int>(probe_pixels_.size());
-  if (probe_pixels_.empty()) return Status::ok();
-  if (Status s = probe(probe_pixels_, &probe_hyps_); !s) return s;
-  // The probe returns one point per pixel whose window fit, in input order: walk both lists.
-  const float gate = static_cast<float>(options_.gate_chi2);
-  size_t k = 0;
-  for (const SalientPoint& sp : probe_hyps_.points) {
-    while (k < probe_pixels_.size() &&
-           (probe_pixels_[k].u_px != sp.corner.u_px || probe_pixels_[k].v_px != sp.corner.v_px)) {
+  frame_report_->probed = static_cast<int>(probe_pixels_.size());
+  return probe_pixels_;
+}
+
+Status LandmarkDatabase::addProbeResults(const StereoHypotheses& measured) {
+  TWOCAM_CHECK(frame_hyps_ != nullptr && probe_requests_built_)
+      << "addProbeResults without probeRequests";
+  // The probe returns one point per pixel whose window fit, in request order: walk both lists.
+  // Checked first, so that an error marks nothing.
+  {
+    size_t k = 0;
+    for (const SalientPoint& sp : measured.points) {
+      while (k < probe_pixels_.size() &&
+             (probe_pixels_[k].u_px != sp.corner.u_px || probe_pixels_[k].v_px != sp.corner.v_px)) {
+        ++k;
+      }
+      if (k == probe_pixels_.size()) {
+        return Status::error("frame " + std::to_string(frame_) +
+                             ": re-measuring unseen candidates: the probe returned a pixel it was "
+                             "not asked for");
+      }
       ++k;
     }
-    if (k == probe_pixels_.size())
-      return Status::error("the probe returned a pixel it was not asked for");
+  }
+  const float gate = static_cast<float>(options_.tracker.gate_chi2);
+  size_t k = 0;
+  for (const SalientPoint& sp : measured.points) {
+    while (probe_pixels_[k].u_px != sp.corner.u_px || probe_pixels_[k].v_px != sp.corner.v_px) ++k;
     const Prediction& p = predictions_[probe_prediction_[k++]];
     // One answer only: where the matcher finds several, the point may be any of them (or a
     // periodic alias of the candidate), so the measurement says nothing and the miss stands.
-    if (sp.num_hypotheses != 1 || sp.first_hypothesis >= probe_hyps_.hypotheses.size()) continue;
-    const DisparityHypothesis& h = probe_hyps_.hypotheses[sp.first_hypothesis];
+    if (sp.num_hypotheses != 1 || sp.first_hypothesis >= measured.hypotheses.size()) continue;
+    const DisparityHypothesis& h = measured.hypotheses[sp.first_hypothesis];
     const float du = static_cast<float>(sp.corner.u_px) - p.u;
     const float dv = static_cast<float>(sp.corner.v_px) - p.v;
     const float dd = h.d_px - p.d;
     // Written so that a non-finite disparity from the probe fails the gate too.
     if (!(du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d <= gate)) continue;
-    if (!rowSupported(h)) continue;
+    if (!policy_->acceptsProbeAnswer(h)) continue;
     probed_[p.slot] = 1;
-    ++report->probe_found;
+    ++frame_report_->probe_found;
   }
   return Status::ok();
 }
@@ -402,51 +417,16 @@ Eigen::Isometry3d LandmarkDatabase::anchorCameraPose(const Landmark& l) const {
   return cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_);
 }
 
-bool LandmarkDatabase::rowSupported(const DisparityHypothesis& h) const {
-  return h.row_span_px <=
-         std::max(options_.max_row_span_px, options_.max_row_span_relative * h.d_px);
-}
-
 bool LandmarkDatabase::applyObservation(uint32_t slot,
                                         const DisparityHypothesis& h,
                                         const Corner& c) {
   Landmark& l = slots_[slot];
-  if (options_.policy == Policy::kConsistency && l.state == LandmarkState::kCandidate) {
-    const Eigen::Isometry3d T_w_anchor = anchorCameraPose(l);
-    const AnchorCheck check = checkAgainstAnchor(options_,
-                                                 rig_,
-                                                 T_w_anchor,
-                                                 l.anchor.u_px,
-                                                 l.anchor.v_px,
-                                                 l.anchor.d_px,
-                                                 T_cl_w_,
-                                                 c.u_px,
-                                                 c.v_px,
-                                                 h.d_px,
-                                                 path_m_ - l.path_at_anchor_m,
-                                                 turn_rad_ - l.turn_at_anchor_rad,
-                                                 l.own_phantoms ? l.phantom_d_px : nullptr);
-    const bool consistent = check.valid && check.mahalanobis2 <= options_.anchor_gate_chi2;
-    informative_[slot] = check.discriminative ? 1 : 0;
-    if (!consistent) {
-      // Evidence against the candidate, but not an observation of it: the track stays where the
-      // anchor says it should be, so a spurious candidate cannot hop onto other points.
-      contradicted_[slot] = 1;
-      return false;
-    }
-    // Verification: the consistent re-observations together favour this candidate over either
-    // phantom by verify_llr (docs/landmarks.md, "Verification").
-    for (int k = 0; k < 2; ++k) {
-      l.phantom_llr[k] = static_cast<float>(std::min(
-          kPhantomImpossible, static_cast<double>(l.phantom_llr[k]) + check.phantom_llr[k]));
-    }
-    if (std::min(l.phantom_llr[0], l.phantom_llr[1]) >= options_.verify_llr) l.verified = true;
-    if (l.max_parallax_rad < min_parallax_rad_) {  // only needed until the rule is met
-      const double parallax = parallaxAngle(l.p_w, T_w_anchor.translation(), T_w_cl_.translation());
-      l.max_parallax_rad = std::max(l.max_parallax_rad, static_cast<float>(parallax));
-    }
+  if (!policy_->onAssociation(slot, l, h, c, frame_ctx_, *this)) {
+    // Refused by the policy (consistency: the observation contradicts the candidate's anchor):
+    // a miss, not an observation.
+    contradicted_[slot] = 1;
+    return false;
   }
-  if (l.state == LandmarkState::kCandidate && !rowSupported(h)) ++l.n_row_unsupported;
   if (l.state == LandmarkState::kCandidate) {
     // Observations feed the refinement at confirmation; a confirmed landmark keeps none.
     Observation obs;
@@ -455,7 +435,7 @@ bool LandmarkDatabase::applyObservation(uint32_t slot,
     obs.v_px = static_cast<float>(c.v_px);
     obs.d_px = h.d_px;
     obs.odom_pose = pose_;
-    if (static_cast<int>(l.observations.size()) >= options_.max_observations) {
+    if (static_cast<int>(l.observations.size()) >= options_.tracker.max_observations) {
       l.observations.erase(l.observations.begin() + 1);  // keep the anchor, drop the oldest other
     }
     l.observations.push_back(obs);
@@ -468,70 +448,27 @@ bool LandmarkDatabase::applyObservation(uint32_t slot,
   if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(c.u_px, c.v_px), h.d_px)) {
     l.p_w_last = T_w_cl_ * *p_cl;
     hot_[slot].p_w_last = l.p_w_last;
-    if (options_.policy == Policy::kInlierRatio && l.state == LandmarkState::kCandidate) {
-      // The measurement as an inverse depth along the anchor ray (SVO's seed parametrisation).
-      const Eigen::Vector3d p_anchor =
-          cameraPoseInWorld(l.anchor.odom_pose, T_b_cl_).inverse() * l.p_w_last;
-      if (p_anchor.z() > options_.min_depth_m) {
-        const double fb = rig_.fx_px * rig_.baseline_m;
-        const double ratio = p_cl->z() / p_anchor.z();
-        const double tau = ratio * ratio * options_.disparity_sigma_px / fb;
-        SvoSeed seed{l.svo_mu, l.svo_sigma2, l.svo_a, l.svo_b, l.svo_range};
-        if (updateSvoSeed(1.0 / p_anchor.z(), tau * tau, &seed)) {
-          l.svo_mu = static_cast<float>(seed.mu);
-          l.svo_sigma2 = static_cast<float>(seed.sigma2);
-          l.svo_a = static_cast<float>(seed.a);
-          l.svo_b = static_cast<float>(seed.b);
-        }
-      }
-    }
+    policy_->onMeasured(slot, l, *p_cl);
   }
   return true;
 }
 
 void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
-  // 1. Evidence from this frame's hits and misses (predicted visible landmarks only).
-  groups_touched_.clear();
-  group_touched_flag_.resize(groups_.size(), 0);
+  // 1. Misses of this frame's predicted visible landmarks; the policy turns hits and misses
+  // into evidence.
   for (const Prediction& p : predictions_) {
-    Landmark& l = slots_[p.slot];
-    const bool hit = associated_[p.slot] != 0;
     // Found by the probe at the predicted depth: neither seen nor missed (probe_unseen).
     if (probed_[p.slot]) continue;
-    if (!hit || contradicted_[p.slot]) ++l.consecutive_misses;
-    if (options_.policy != Policy::kConsistency) continue;
-    if (path_m_ - l.path_at_last_evidence_m < options_.evidence_step_m) continue;
-    l.path_at_last_evidence_m = path_m_;
-    if (!hit) {
-      l.evidence +=
-          static_cast<float>(missEvidence(options_.detection_prob, p.p_false_hit_per_hyp));
-    } else if (contradicted_[p.slot]) {
-      l.evidence += static_cast<float>(options_.contradiction_evidence);
-    } else if (informative_[p.slot] || l.state == LandmarkState::kConfirmed) {
-      l.evidence += static_cast<float>(
-          hitEvidence(options_.detection_prob, p.p_false_hit_per_hyp, options_.max_hit_evidence));
-    } else {
-      // Before the motion since its anchor could tell its depth from a rival's, a re-observation
-      // only shows the corner is stable: a periodic-texture phantom reappears just the same.
-      l.evidence += static_cast<float>(options_.stability_evidence);
-    }
-    if (l.group != 0 && !group_touched_flag_[l.group - 1]) {
-      group_touched_flag_[l.group - 1] = 1;
-      groups_touched_.push_back(l.group - 1);
-    }
-    if (l.group == 0) {
-      // A confirmed landmark (no rivals left): plain log-odds with its prior.
-      const double mass = l.prior * std::exp(static_cast<double>(l.evidence));
-      l.confidence = static_cast<float>(mass / (mass + noneMass(l.rivals_at_creation)));
-    }
+    if (associated_[p.slot] == 0 || contradicted_[p.slot]) ++slots_[p.slot].consecutive_misses;
   }
-  for (uint32_t g : groups_touched_) {
-    group_touched_flag_[g] = 0;
-    if (groups_[g].count > 0) normaliseGroup(g);
-  }
+  FrameOutcome outcome;
+  outcome.predictions = &predictions_;
+  outcome.associated = associated_.data();
+  outcome.contradicted = contradicted_.data();
+  outcome.probed = probed_.data();
+  policy_->scoreFrame(outcome, frame_ctx_, &slots_);
 
-  // 2. Policy rules and life cycle of candidates.
-  const double t_s = static_cast<double>(t_ns_) * 1e-9;
+  // 2. Life cycle, then the policy's rule for the candidates that are still live.
   for (uint32_t s = 0; s < slots_.size(); ++s) {
     // A confirmed landmark's misses change only when it is predicted visible.
     const LandmarkState state = hot_[s].state;
@@ -539,107 +476,50 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
       continue;
     Landmark& l = slots_[s];
     if (l.state == LandmarkState::kConfirmed) {
-      if (l.consecutive_misses > options_.max_confirmed_misses) {
-        releaseSlot(s, report);
-        continue;
-      }
+      if (l.consecutive_misses > options_.tracker.max_confirmed_misses) releaseSlot(s, report);
       continue;
     }
     if (l.state != LandmarkState::kCandidate) continue;
-    if (l.frames_out_of_view > options_.max_frames_out_of_view ||
-        l.consecutive_misses > options_.max_consecutive_misses) {
+    if (l.frames_out_of_view > options_.tracker.max_frames_out_of_view ||
+        l.consecutive_misses > options_.tracker.max_consecutive_misses) {
       releaseSlot(s, report);
       continue;
     }
-    bool confirm_now = false;
-    bool prune_now = false;
-    switch (options_.policy) {
-      case Policy::kConsistency: {
-        if (l.confidence < options_.prune_prob && l.path_at_last_evidence_m > 0.0) {
-          prune_now = true;
-        } else {
-          confirm_now =
-              (l.verified || l.rivals_at_creation == 1) && l.confidence >= options_.confirm_prob &&
-              l.n_obs >= options_.min_observations && l.max_parallax_rad >= min_parallax_rad_ &&
-              l.n_row_unsupported <= options_.max_row_unsupported_fraction * l.n_obs;
-        }
+    switch (policy_->decide(s, &l, frame_ctx_)) {
+      case ConfirmationPolicy::Decision::kPrune:
+        releaseSlot(s, report);
         break;
-      }
-      case Policy::kWtaLrc:
-        confirm_now = true;  // accepted at once (seeding keeps only LR-consistent best matches)
+      case ConfirmationPolicy::Decision::kConfirm:
+        confirm(s, report);
         break;
-      case Policy::kSeenCount: {
-        const double age_s = t_s - static_cast<double>(l.first_t_ns) * 1e-9;
-        l.confidence = std::min(
-            1.0f, static_cast<float>(l.n_obs) / static_cast<float>(options_.seen_count_min));
-        if (l.n_obs >= options_.seen_count_min && age_s <= options_.seen_count_window_s) {
-          confirm_now = true;
-        } else if (age_s > options_.seen_count_window_s) {
-          prune_now = true;
-        }
+      case ConfirmationPolicy::Decision::kKeep:
         break;
-      }
-      case Policy::kCulling: {
-        const float ratio =
-            static_cast<float>(l.n_obs) / static_cast<float>(std::max(1, l.n_visible));
-        l.confidence = std::min(1.0f, ratio);
-        if (frame_ - l.first_frame >= options_.culling_decision_frames) {
-          if (ratio >= options_.culling_min_found_ratio &&
-              l.n_obs >= options_.culling_min_observations) {
-            confirm_now = true;
-          } else {
-            prune_now = true;
-          }
-        }
-        break;
-      }
-      case Policy::kInlierRatio: {
-        const float ratio = l.svo_a / (l.svo_a + l.svo_b);
-        l.confidence = ratio;
-        if (ratio < options_.svo_prune_inlier_ratio) {
-          prune_now = true;
-        } else if (std::sqrt(l.svo_sigma2) < options_.svo_converged_sigma_fraction * l.svo_range &&
-                   ratio >= options_.svo_min_inlier_ratio) {
-          confirm_now = true;
-        }
-        break;
-      }
-    }
-    if (prune_now) {
-      releaseSlot(s, report);
-    } else if (confirm_now) {
-      confirm(s, report);
     }
   }
 }
 
 void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   Landmark& l = slots_[slot];
-  if (options_.policy == Policy::kConsistency && l.group != 0) {
-    // At most one hypothesis of a corner is real: confirming one retires its rivals.
-    const RivalGroup g = groups_[l.group - 1];
-    for (int i = 0; i < g.count; ++i) {
-      if (g.members[i] != slot && slots_[g.members[i]].state == LandmarkState::kCandidate) {
-        releaseSlot(g.members[i], report);
-      }
-    }
+  policy_->rivalsToRetire(slot, &rivals_);
+  for (uint32_t r : rivals_) {
+    if (slots_[r].state == LandmarkState::kCandidate) releaseSlot(r, report);
   }
-  removeFromGroup(slot);
+  policy_->onConfirmed(slot);
   l.state = LandmarkState::kConfirmed;
   hot_[slot].state = LandmarkState::kConfirmed;
   l.confirmed_frame = frame_;
   --num_candidates_;
   ++num_confirmed_;
   ++report->confirmed;
-  if (options_.refine && l.observations.size() >= 2) {
+  if (options_.refine.enabled && l.observations.size() >= 2) {
     RefineOptions ro;
-    ro.disparity_sigma_px = options_.disparity_sigma_px;
-    ro.huber = options_.refine_huber;
-    ro.noise_model = options_;
+    ro.disparity_sigma_px = options_.tracker.disparity_sigma_px;
+    ro.huber = options_.refine.huber;
+    ro.noise_model = options_.tracker;
     if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk)
       ++report->refined;
   }
-  // Confirmed landmarks are not re-refined (see LandmarkOptions::refine), so their observations
+  // Confirmed landmarks are not re-refined (see RefinementOptions::enabled), so their observations
   // are not needed any more: about 1 kB per landmark, and no per-hit copying.
   std::vector<Observation>().swap(l.observations);
 }
@@ -651,40 +531,26 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
     if (point.num_hypotheses == 0) continue;
     bool explained = false;
     for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
-      if (report->hypothesis_landmark[point.first_hypothesis + k] >= 0) explained = true;
+      if (report->hypothesis_landmark_id[point.first_hypothesis + k] != 0) explained = true;
     }
     if (explained) continue;  // tracked by an existing landmark: not seeded again
-    if (!options_.seed_depth_edges &&
+    if (!options_.tracker.seed_depth_edges &&
         hyps.hypotheses[point.first_hypothesis].window_shift_px != 0) {
       continue;  // best match from a shifted window: the corner is on a depth edge
     }
-    uint32_t chosen[RivalGroup::kMaxMembers];
+    uint32_t chosen[kMaxRivals];
     int n = 0;
-    for (uint32_t k = 0; k < point.num_hypotheses && n < RivalGroup::kMaxMembers; ++k) {
+    for (uint32_t k = 0; k < point.num_hypotheses && n < kMaxRivals; ++k) {
       const uint32_t j = point.first_hypothesis + k;
       const DisparityHypothesis& h = hyps.hypotheses[j];
-      if (!(h.d_px > 0.0f) || fb / h.d_px < options_.min_depth_m) continue;
-      if (options_.policy == Policy::kWtaLrc && (h.rank != 0 || !h.lr_consistent)) continue;
-      if (options_.policy == Policy::kConsistency) {
-        // A cheaper hypothesis within same_answer_px stands for this one: the same answer,
-        // which as a rival would take half the belief and never be told apart by motion.
-        bool twin = false;
-        for (int i = 0; i < n; ++i) {
-          twin =
-              twin || std::abs(hyps.hypotheses[chosen[i]].d_px - h.d_px) <= options_.same_answer_px;
-        }
-        if (twin) continue;
-      }
+      if (!(h.d_px > 0.0f) || fb / h.d_px < options_.tracker.min_depth_m) continue;
+      if (!policy_->seeds(h) || policy_->sameAnswerAsChosen(hyps, chosen, n, h)) continue;
       chosen[n++] = j;
     }
     if (n == 0) continue;
     double weight_sum = 0.0;
     for (int i = 0; i < n; ++i) weight_sum += hyps.hypotheses[chosen[i]].lr_consistent ? 2.0 : 1.0;
-    const uint32_t g = options_.policy == Policy::kConsistency ? allocateGroup() + 1 : 0;
-    // A lone point may have its own prior, prior_real_lone (docs/landmarks.md, "Prior of a lone
-    // candidate"; by default equal to prior_real).
-    const double prior_real = 1.0 - noneMass(n);
-    if (g != 0) groups_[g - 1].none_mass = 1.0 - prior_real;
+    policy_->beginSeedGroup(n);
     for (int i = 0; i < n; ++i) {
       const DisparityHypothesis& h = hyps.hypotheses[chosen[i]];
       const auto p_cl =
@@ -705,66 +571,50 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       l.observations.push_back(l.anchor);
       l.first_frame = l.last_seen_frame = frame_;
       l.first_t_ns = t_ns_;
-      l.path_at_last_seen_m = l.path_at_last_evidence_m = l.path_at_anchor_m = path_m_;
-      l.turn_at_anchor_rad = turn_rad_;
+      l.path_at_last_seen_m = path_m_;
       l.turn_at_last_seen_rad = turn_rad_;
       l.n_obs = 1;
-      l.n_row_unsupported = rowSupported(h) ? 0 : 1;
       l.n_visible = 1;
-      l.rivals_at_creation = static_cast<uint8_t>(n);
-      l.own_phantoms = options_.verify_own_rivals && point.complete;
-      if (l.own_phantoms) {
-        // Every hypothesis of the corner is a possible real point, also those not seeded (too
-        // near, or at zero disparity, whose phantom is then impossible); those within
-        // same_answer_px are the candidate's own answer.
-        const auto same = static_cast<float>(options_.same_answer_px);
-        for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
-          const float d = hyps.hypotheses[point.first_hypothesis + k].d_px;
-          if (d < h.d_px - same && d > l.phantom_d_px[0]) l.phantom_d_px[0] = d;
-          if (d > h.d_px + same && (l.phantom_d_px[1] == 0.0f || d < l.phantom_d_px[1])) {
-            l.phantom_d_px[1] = d;
-          }
-        }
-      }
-      l.prior = static_cast<float>(prior_real * (h.lr_consistent ? 2.0 : 1.0) / weight_sum);
-      l.confidence = l.prior;
-      l.svo_range = static_cast<float>(1.0 / options_.min_depth_m);
-      l.svo_mu = static_cast<float>(1.0 / p_cl->z());
-      l.svo_sigma2 = l.svo_range * l.svo_range / 36.0f;
-      if (g != 0) {
-        RivalGroup& group = groups_[g - 1];
-        group.members[group.count++] = slot;
-        l.group = g;
-      }
+      SeedInfo info;
+      info.point = &point;
+      info.hypotheses = &hyps;
+      info.h = &h;
+      info.rivals = n;
+      info.weight = h.lr_consistent ? 2.0 : 1.0;
+      info.weight_sum = weight_sum;
+      info.z_cl_m = p_cl->z();
+      policy_->onSeed(slot, &l, info, frame_ctx_);
       report->hypothesis_landmark[chosen[i]] = static_cast<int32_t>(slot);
+      report->hypothesis_landmark_id[chosen[i]] = l.id;
+      report->created_ids.push_back(l.id);
       report->created_slots.push_back(slot);
       report->created_hypotheses.push_back(chosen[i]);
       ++report->seeded;
-      if (options_.policy == Policy::kWtaLrc) confirm(slot, report);
+      if (policy_->confirmsAtSeed()) confirm(slot, report);
     }
   }
 }
 
 void LandmarkDatabase::enforceCaps(FrameReport* report) {
-  if (num_confirmed_ > options_.max_confirmed) {
+  if (num_confirmed_ > options_.tracker.max_confirmed) {
     std::vector<std::pair<int32_t, uint32_t>> order;  // (last seen frame, slot)
     order.reserve(static_cast<size_t>(num_confirmed_));
     for (uint32_t s = 0; s < slots_.size(); ++s) {
       if (slots_[s].state == LandmarkState::kConfirmed)
         order.emplace_back(slots_[s].last_seen_frame, s);
     }
-    const size_t excess = order.size() - static_cast<size_t>(options_.max_confirmed);
+    const size_t excess = order.size() - static_cast<size_t>(options_.tracker.max_confirmed);
     std::nth_element(
         order.begin(), order.begin() + static_cast<std::ptrdiff_t>(excess), order.end());
     for (size_t i = 0; i < excess; ++i) releaseSlot(order[i].second, report);
   }
-  if (num_candidates_ <= options_.max_candidates) return;
+  if (num_candidates_ <= options_.tracker.max_candidates) return;
   std::vector<std::pair<float, uint32_t>> order;
   order.reserve(static_cast<size_t>(num_candidates_));
   for (uint32_t s = 0; s < slots_.size(); ++s) {
     if (slots_[s].state == LandmarkState::kCandidate) order.emplace_back(slots_[s].confidence, s);
   }
-  const size_t excess = order.size() - static_cast<size_t>(options_.max_candidates);
+  const size_t excess = order.size() - static_cast<size_t>(options_.tracker.max_candidates);
   std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(excess), order.end());
   for (size_t i = 0; i < excess; ++i) releaseSlot(order[i].second, report);
 }

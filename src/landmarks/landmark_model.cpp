@@ -18,18 +18,15 @@ bool projectStereo(const StereoRig& rig, const Eigen::Vector3d& p_cl, Eigen::Vec
   return true;
 }
 
-MeasurementSigma predictionSigma(const LandmarkOptions& options,
+MeasurementSigma predictionSigma(const TrackerOptions& options,
                                  const StereoRig& rig,
                                  const Eigen::Vector3d& uvd,
                                  double z_m,
                                  double path_m,
                                  double turn_rad) {
-  const double s = std::max(0.0, path_m);
-  const double th = std::abs(turn_rad);
-  const double sigma_t =
-      options.odom_trans_sigma_per_sqrt_m * std::sqrt(s) + options.odom_trans_scale_sigma * s;
-  const double sigma_yaw = options.odom_rot_sigma_per_sqrt_rad * std::sqrt(th) +
-                           options.odom_rot_scale_sigma * th + options.odom_rot_sigma_per_m * s;
+  const OdometryErrorSigma odo = accumulatedOdometrySigma(options.odometry_noise, path_m, turn_rad);
+  const double sigma_t = odo.trans_m;
+  const double sigma_yaw = odo.yaw_rad;
   const double t_over_z = sigma_t / std::max(z_m, 1e-3);
   const double du_t = (rig.fx_px + std::abs(uvd.x() - rig.cx_px)) * t_over_z;
   const double du_r = rig.fx_px * sigma_yaw;
@@ -74,19 +71,17 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
   if (!predict(anchor_d_px, &nominal, &x_over_z)) return out;
   const double fb = rig.fx_px * rig.baseline_m;
   const double z = fb / nominal.z();
-  const double s = std::max(0.0, path_m);
-  const double th = std::abs(turn_rad);
-  const double sigma_t =
-      options.odom_trans_sigma_per_sqrt_m * std::sqrt(s) + options.odom_trans_scale_sigma * s;
-  const double sigma_yaw = options.odom_rot_sigma_per_sqrt_rad * std::sqrt(th) +
-                           options.odom_rot_scale_sigma * th + options.odom_rot_sigma_per_m * s;
+  const OdometryErrorSigma odo =
+      accumulatedOdometrySigma(options.tracker.odometry_noise, path_m, turn_rad);
+  const double sigma_t = odo.trans_m;
+  const double sigma_yaw = odo.yaw_rad;
   // Anchor disparity noise, propagated by re-projecting the ray at d +- sigma.
   Eigen::Vector3d plus, minus;
   double var_u_anchor = 0.0;
   double var_v_anchor = 0.0;
   double var_d_anchor = 0.0;
-  if (predict(anchor_d_px + options.disparity_sigma_px, &plus, nullptr) &&
-      predict(anchor_d_px - options.disparity_sigma_px, &minus, nullptr)) {
+  if (predict(anchor_d_px + options.tracker.disparity_sigma_px, &plus, nullptr) &&
+      predict(anchor_d_px - options.tracker.disparity_sigma_px, &minus, nullptr)) {
     var_u_anchor = 0.25 * (plus.x() - minus.x()) * (plus.x() - minus.x());
     var_v_anchor = 0.25 * (plus.y() - minus.y()) * (plus.y() - minus.y());
     var_d_anchor = 0.25 * (plus.z() - minus.z()) * (plus.z() - minus.z());
@@ -94,16 +89,16 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
     return out;  // the anchor's depth is too uncertain to predict anything
   }
   const double z_ratio = (fb / anchor_d_px) / z;  // anchor pixel noise scales with z_anchor / z
-  const double px2 = options.pixel_sigma_px * options.pixel_sigma_px;
+  const double px2 = options.tracker.pixel_sigma_px * options.tracker.pixel_sigma_px;
   const double dv_odo =
       std::abs(nominal.y() - rig.cy_px) * (sigma_t / z + std::abs(x_over_z) * sigma_yaw);
   const double dd_odo = nominal.z() * (sigma_t / z + std::abs(x_over_z) * sigma_yaw);
   const double var_v = px2 + px2 * z_ratio * z_ratio + var_v_anchor + dv_odo * dv_odo;
-  const double var_d =
-      options.disparity_sigma_px * options.disparity_sigma_px + var_d_anchor + dd_odo * dd_odo;
+  const double var_d = options.tracker.disparity_sigma_px * options.tracker.disparity_sigma_px +
+                       var_d_anchor + dd_odo * dd_odo;
   // Columns: a heading error shifts them all by fx sigma_yaw, a translation error across the
   // optical axis by fx sigma_t / z and one along it scales the offset from cx (as in the gate).
-  const bool use_u = options.anchor_check_columns;
+  const bool use_u = options.consistency.anchor_check_columns;
   const double du_odo = std::hypot(rig.fx_px * sigma_yaw,
                                    (rig.fx_px + std::abs(nominal.x() - rig.cx_px)) * sigma_t / z);
   const double var_u = px2 + px2 * z_ratio * z_ratio + var_u_anchor + du_odo * du_odo;
@@ -129,15 +124,15 @@ AnchorCheck checkAgainstAnchor(const LandmarkOptions& options,
     const double dd = d - a.z();
     return dv * dv / var_v + dd * dd / var_d + (use_u ? du * du / var_u : 0.0);
   };
-  const double offset =
-      std::max(options.verify_min_offset_px, options.verify_relative_offset * anchor_d_px);
+  const double offset = std::max(options.consistency.verify_min_offset_px,
+                                 options.consistency.verify_relative_offset * anchor_d_px);
   const double generic[2] = {anchor_d_px - offset, anchor_d_px + offset};
   bool discriminative = true;
   for (int k = 0; k < 2; ++k) {
     out.phantom_llr[k] = kPhantomImpossible;
     Eigen::Vector3d p;
     if (phantom(generic[k], &p)) {
-      if (m2_from(p, nominal.x(), nominal.y(), nominal.z()) < options.verify_chi2)
+      if (m2_from(p, nominal.x(), nominal.y(), nominal.z()) < options.consistency.verify_chi2)
         discriminative = false;
       // The observation under the phantom hypothesis against under the candidate's.
       if (phantom_d_px == nullptr)

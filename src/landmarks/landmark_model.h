@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "common/frames.h"
+#include "common/odometry_noise.h"
 #include "common/rig.h"
 #include "landmarks/options.h"
 
@@ -28,16 +29,15 @@ struct MeasurementSigma {
 };
 
 /// Uncertainty of the prediction (u, v, d) of a point at depth z_m after the robot drove
-/// path_m and turned turn_rad (absolute) since the point was last observed:
-///   sigma_t   = a_t sqrt(s) + k_t s                      (translation error [m])
-///   sigma_yaw = a_r sqrt(|theta|) + k_r |theta| + c_r s  (heading error [rad])
+/// path_m and turned turn_rad (absolute) since the point was last observed, with sigma_t and
+/// sigma_yaw the accumulated odometry error (common/odometry_noise.h, accumulatedOdometrySigma):
 ///   sigma_u^2 = sigma_px^2 + (fx sigma_yaw)^2 + ((fx + |u - cx|) sigma_t / z)^2
 ///   sigma_v^2 = sigma_px^2 + (|v - cy| sigma_t / z)^2
 ///   sigma_d^2 = sigma_dpx^2 + (d sigma_t / z)^2
 /// A heading error moves every point sideways by fx sigma_yaw; a translation error along the
 /// optical axis scales the offset from the principal point and the disparity by sigma_t / z, and
 /// one across it shifts u by fx sigma_t / z.
-MeasurementSigma predictionSigma(const LandmarkOptions& options,
+MeasurementSigma predictionSigma(const TrackerOptions& options,
                                  const StereoRig& rig,
                                  const Eigen::Vector3d& uvd,
                                  double z_m,
@@ -56,12 +56,12 @@ struct AnchorCheck {
   /// the anchor ray at d_anchor +- max(verify_min_offset_px, verify_relative_offset d_anchor),
   /// a periodic-texture phantom of it (disparity a fixed multiple of the real one) would now be
   /// predicted at least verify_chi2 away from the candidate's own prediction. Decides how much
-  /// a consistent hit counts (LandmarkOptions::max_hit_evidence or stability_evidence).
+  /// a consistent hit counts (ConsistencyOptions::max_hit_evidence or stability_evidence).
   bool discriminative = false;
   /// Log-likelihood ratio [nats] of the observation for the candidate against each of those two
   /// phantoms (disparity below, above): 0.5 (m2 to the phantom's prediction - mahalanobis2),
   /// with the same sigmas. Summed over a candidate's consistent re-observations it decides its
-  /// verification (LandmarkOptions::verify_llr). A phantom whose real point would be behind
+  /// verification (ConsistencyOptions::verify_llr). A phantom whose real point would be behind
   /// the camera cannot exist: kPhantomImpossible.
   double phantom_llr[2] = {0.0, 0.0};
   /// False when the anchor point is behind the current camera (no prediction).

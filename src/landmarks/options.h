@@ -1,11 +1,15 @@
 #pragma once
-/// Options of the landmark database: the odometry noise model used for gating, the confidence
-/// model of the `consistency` policy, the baseline policies' rules and the life-cycle limits.
-/// The model and the reasons for every default are written down in docs/landmarks.md.
+/// Options of the landmark database, one struct per part, as in the config file's groups
+/// (landmarks.tracker, landmarks.tracker.odometry_noise, landmarks.refine, landmarks.consistency,
+/// landmarks.seen_count, landmarks.culling, landmarks.inlier_ratio): the tracker (prediction,
+/// gating, association, life cycle and caps) that every policy shares, the refinement at
+/// confirmation, and each confirmation policy's own rules. The model and the reasons for every
+/// default are written down in docs/landmarks.md.
 
 #include <string>
 #include <vector>
 
+#include "common/odometry_noise.h"
 #include "common/status.h"
 
 namespace twocam::landmarks {
@@ -26,27 +30,10 @@ const char* policyName(Policy policy);
 Status parsePolicy(const std::string& name, Policy* policy);
 const std::vector<Policy>& allPolicies();
 
-struct LandmarkOptions {
-  Policy policy = Policy::kConsistency;
-
-  // ---- Odometry noise model for gating (same form as the simulator's wheel model)
-  // ----------------
-  /// Random translation error [m / sqrt(m)] of the distance driven since a landmark was last seen.
-  /// Default 0.03: 1.5x the office world's 0.02, because the database does not know the robot's
-  /// true noise and a gate that is too narrow loses real landmarks.
-  double odom_trans_sigma_per_sqrt_m = 0.03;
-  /// Systematic relative error of the distance [-] (wheel radius error). Office world: 0.01.
-  double odom_trans_scale_sigma = 0.015;
-  /// Random heading error [rad / sqrt(rad)] of the angle turned. Office world: 0.03.
-  double odom_rot_sigma_per_sqrt_rad = 0.045;
-  /// Systematic relative heading error [-] (wheel base error). Office world: 0.01.
-  double odom_rot_scale_sigma = 0.015;
-  /// Heading error accumulated per metre driven even without turning [rad / m]: unequal wheel
-  /// radii make the robot curve slightly. Not in the simulated model; 2 mrad/m is typical.
-  double odom_rot_sigma_per_m = 0.002;
-
-  // ---- Stereo / pixel noise
-  // ----------------------------------------------------------------------
+/// The policy-agnostic tracker: noise model, gates, visibility, life cycle and caps.
+struct TrackerOptions {
+  /// The odometry noise the gates and the refinement assume (common/odometry_noise.h).
+  OdometryNoise odometry_noise;
   /// Corner localisation noise [px] (Harris at integer pixels: uniform +-0.5 has sigma 0.29;
   /// 0.5 also covers rig vibration).
   double pixel_sigma_px = 0.5;
@@ -61,24 +48,59 @@ struct LandmarkOptions {
   /// Landmarks nearer than this along the optical axis are not predicted [m].
   double min_depth_m = 0.2;
   /// Disparity search range of the frontend [px]; a prediction outside it cannot be observed.
+  /// Not a config key: pipeline::clampToRig sets it from frontend.sad.
   double min_disparity_px = 0.0;
+  /// Upper end of that range [px] (set by clampToRig too).
   double max_disparity_px = 63.0;
+  /// A candidate predicted visible but not associated for this many consecutive frames is
+  /// dropped (all policies) [-].
+  int max_consecutive_misses = 8;
+  /// A confirmed landmark predicted visible but not seen for this many consecutive frames is
+  /// retired [-]: odometry drift has moved it away from where its corner now appears (which is
+  /// then confirmed afresh), or it was wrong. 45 frames = 3 s at 15 Hz. Without this a robot
+  /// that revisits a place grows its map on every visit.
+  int max_confirmed_misses = 45;
+  /// A candidate not predicted visible for this many frames is dropped; confirmed landmarks are
+  /// kept when they leave the view [-].
+  int max_frames_out_of_view = 5;
+  /// Hard cap on confirmed landmarks; the least recently seen are dropped first [-]. With odometry
+  /// drift a robot that keeps revisiting places re-confirms their corners in the drifted frame,
+  /// so only a cap bounds memory on endless runs (about 1.2 kB per landmark: 60 MB here).
+  int max_confirmed = 50000;
+  /// Hard cap on live candidates; the least confident are dropped first [-].
+  int max_candidates = 20000;
+  /// Observations kept per landmark for refinement: the anchor plus the most recent ones [-].
+  int max_observations = 24;
+  /// Seed candidates from hypotheses whose matching window was shifted off the corner
+  /// (DisparityHypothesis::window_shift_px != 0): the frontend matched only one side of the
+  /// corner, i.e. the corner lies on a depth edge, where its 3-D point is ill-defined (it
+  /// slides along the occluding contour as the robot moves) and METRICS.md leaves it without
+  /// ground truth.
+  bool seed_depth_edges = false;
 
-  // ---- consistency policy (docs/landmarks.md)
-  // ----------------------------------------------------
+  /// Ranges as in the config's comments; ints bounded so that counters and capacities cannot
+  /// overflow. Messages start with "landmarks.tracker.".
+  [[nodiscard]] Status validate() const;
+};
+
+/// The multi-view refinement of a landmark's depth at its confirmation (landmarks/refine.h).
+struct RefinementOptions {
+  /// Refine a landmark's depth with Ceres over its observations when it is confirmed. Confirmed
+  /// landmarks are not re-refined later: their associations are tracked without the anchor check,
+  /// and re-refining over them cost 7 points of precision on the office world (docs/landmarks.md).
+  bool enabled = true;
+  /// Huber loss scale of the refinement residuals, in units of their sigma [-].
+  double huber = 1.0;
+
+  [[nodiscard]] Status validate() const;
+};
+
+/// The `consistency` policy: log-odds existence from hits and misses under odometry motion,
+/// normalised over the rival hypotheses of a corner (docs/landmarks.md).
+struct ConsistencyOptions {
   /// Prior probability that a salient point's hypotheses contain the real match [-]; it is split
   /// among the rivals (LR-consistent ones count double).
   double prior_real = 0.5;
-  /// The same prior for a point that gives one answer (all its hypotheses within
-  /// same_answer_px, so it is seeded as a lone candidate without rivals) [-]. Such points are
-  /// real more often than 0.5: 90.9 % on Middlebury Tsukuba and 98.6 % on Venus (our frontend,
-  /// Birchfield-Tomasi cost; `twocam stereo-eval ... one_answer_precision`), 76-98 % on the
-  /// simulated worlds. The default stays at prior_real all the same: at confirm_prob = 0.9 a lone
-  /// prior of 0.9 confirms a lone hypothesis on four sightings without any motion evidence,
-  /// which on the repetitive world triples the wrongly confirmed landmarks and on the drifting
-  /// synthetic stream triples the repeat landmarks of one point (docs/landmarks.md, "Prior of a
-  /// lone candidate", with the measured trade for users whose scenes are not periodic).
-  double prior_real_lone = 0.5;
   /// Probability that a real, visible landmark is re-detected and matched in a frame [-]
   /// (Harris repeatability between consecutive frames is about 0.7-0.9).
   double detection_prob = 0.75;
@@ -141,7 +163,9 @@ struct LandmarkOptions {
   /// repetitive +20 %), at strict precision within -0.4 / +0.2 points (docs/landmarks.md,
   /// "Verification").
   double verify_min_offset_px = 2.0;
+  /// Relative part of the phantom offset (see verify_min_offset_px) [-].
   double verify_relative_offset = 0.2;
+  /// Summed log-likelihood ratio against both phantoms needed for verification [nats].
   double verify_llr = 5.0;
   /// Verification against the corner's own rivals: when the frontend says a corner's hypothesis
   /// list is complete (SalientPoint::complete: every minimum within its cost ratio is listed,
@@ -167,7 +191,7 @@ struct LandmarkOptions {
   /// (anchor_gate_chi2): a phantom is then predicted where the anchor check calls it a
   /// contradiction (16 until 2026-12-02, when this also decided verification).
   double verify_chi2 = 9.21;
-  /// ... and at least this many observations [-].
+  /// Observations (anchor included) needed to confirm [-].
   int min_observations = 4;
   /// ... and a minimum parallax [deg], >= 0 and < 90: the angle at the candidate's anchor point
   /// between the anchor's left-camera centre and that of at least one later consistent
@@ -180,55 +204,6 @@ struct LandmarkOptions {
   double min_parallax_deg = 0.1;
   /// Candidates whose probability falls below this are pruned [-].
   double prune_prob = 0.02;
-
-  // ---- baselines
-  // -----------------------------------------------------------------------------------
-  /// seen-count: observations needed and the window they must fall into [s] (MRPT CLandmarksMap).
-  int seen_count_min = 2;
-  double seen_count_window_s = 4.0;
-  /// culling: minimum found/visible ratio and observations (ORB-SLAM MapPointCulling), and the
-  /// number of frames after creation at which the rule is applied.
-  double culling_min_found_ratio = 0.25;
-  int culling_min_observations = 3;
-  int culling_decision_frames = 3;
-  /// inlier-ratio: SVO seed convergence when the inverse-depth sigma falls below this fraction of
-  /// the seed's inverse-depth range, and the inlier ratio a / (a + b) at least the threshold.
-  double svo_converged_sigma_fraction = 1.0 / 200.0;
-  double svo_min_inlier_ratio = 0.6;
-  /// SVO seeds whose inlier ratio falls below this are dropped.
-  double svo_prune_inlier_ratio = 0.1;
-
-  // ---- life cycle
-  // ----------------------------------------------------------------------------------
-  /// A candidate predicted visible but not associated for this many consecutive frames is
-  /// dropped (all policies) [-].
-  int max_consecutive_misses = 8;
-  /// A confirmed landmark predicted visible but not seen for this many consecutive frames is
-  /// retired [-]: odometry drift has moved it away from where its corner now appears (which is
-  /// then confirmed afresh), or it was wrong. 45 frames = 3 s at 15 Hz. Without this a robot
-  /// that revisits a place grows its map on every visit.
-  int max_confirmed_misses = 45;
-  /// A candidate not predicted visible for this many frames is dropped; confirmed landmarks are
-  /// kept when they leave the view [-].
-  int max_frames_out_of_view = 5;
-  /// Hard cap on confirmed landmarks; the least recently seen are dropped first [-]. With odometry
-  /// drift a robot that keeps revisiting places re-confirms their corners in the drifted frame,
-  /// so only a cap bounds memory on endless runs (about 1.2 kB per landmark: 60 MB here).
-  int max_confirmed = 50000;
-  /// Hard cap on live candidates; the least confident are dropped first [-].
-  int max_candidates = 20000;
-  /// Observations kept per landmark for refinement: the anchor plus the most recent ones [-].
-  int max_observations = 24;
-  /// Refine a landmark's depth with Ceres over its observations when it is confirmed. Confirmed
-  /// landmarks are not re-refined later: their associations are tracked without the anchor check,
-  /// and re-refining over them cost 7 points of precision on the office world (docs/landmarks.md).
-  bool refine = true;
-  /// Seed candidates from hypotheses whose matching window was shifted off the corner
-  /// (DisparityHypothesis::window_shift_px != 0): the frontend matched only one side of the
-  /// corner, i.e. the corner lies on a depth edge, where its 3-D point is ill-defined (it
-  /// slides along the occluding contour as the robot moves) and METRICS.md leaves it without
-  /// ground truth.
-  bool seed_depth_edges = false;
   /// consistency policy, row support: an observation has it when its hypothesis'
   /// DisparityHypothesis::row_span_px (the spread of the disparities matched one row up, on the
   /// corner's row and one row down) is at most max(max_row_span_px, max_row_span_relative * d)
@@ -244,7 +219,10 @@ struct LandmarkOptions {
   /// docs/landmarks.md, "Row support". Hypotheses whose frontend did not measure it
   /// (row_span_px = 0) always have it; 1 turns the rule off.
   double max_row_span_px = 0.5;
+  /// Relative part of that bound (see max_row_span_px) [-].
   double max_row_span_relative = 0.05;
+  /// Largest fraction of observations without row support for a confirmation (see max_row_span_px)
+  /// [-].
   double max_row_unsupported_fraction = 0.0;
   /// consistency policy: a confirmed landmark whose association gate holds more than one
   /// corner is not associated in that frame (it counts as unseen). After a long absence its gate,
@@ -263,9 +241,59 @@ struct LandmarkOptions {
   /// (replayed hypotheses, the landmarks benchmark) behave as false. Its time counts in the
   /// landmark stage. docs/landmarks.md, "Probing unseen candidates".
   bool probe_unseen = true;
-  /// Huber loss scale of the refinement residuals, in units of their sigma [-].
-  double refine_huber = 1.0;
 
+  [[nodiscard]] Status validate() const;
+};
+
+/// The `seen-count` baseline (MRPT CLandmarksMap): seen often enough within a time window.
+struct SeenCountOptions {
+  /// seen-count: observations needed and the window they must fall into [s] (MRPT CLandmarksMap).
+  int min_observations = 2;
+  /// Window, from the candidate's creation, the observations must fall into [s].
+  double window_s = 4.0;
+
+  [[nodiscard]] Status validate() const;
+};
+
+/// The `culling` baseline (ORB-SLAM MapPointCulling).
+struct CullingOptions {
+  /// culling: minimum found/visible ratio and observations (ORB-SLAM MapPointCulling), and the
+  /// number of frames after creation at which the rule is applied.
+  double min_found_ratio = 0.25;
+  /// Observations needed (anchor included) [-].
+  int min_observations = 3;
+  /// Frames after creation at which the rule is applied [-].
+  int decision_frames = 3;
+
+  [[nodiscard]] Status validate() const;
+};
+
+/// The `inlier-ratio` baseline (SVO depth seed).
+struct InlierRatioOptions {
+  /// inlier-ratio: SVO seed convergence when the inverse-depth sigma falls below this fraction of
+  /// the seed's inverse-depth range, and the inlier ratio a / (a + b) at least the threshold.
+  double converged_sigma_fraction = 1.0 / 200.0;
+  /// Inlier ratio a / (a + b) needed to confirm a converged seed [-].
+  double min_inlier_ratio = 0.6;
+  /// SVO seeds whose inlier ratio falls below this are dropped.
+  double prune_inlier_ratio = 0.1;
+
+  [[nodiscard]] Status validate() const;
+};
+
+struct LandmarkOptions {
+  /// Which confirmation rule decides; the other policies' groups are kept but not read.
+  Policy policy = Policy::kConsistency;
+  TrackerOptions tracker;
+  RefinementOptions refine;
+  ConsistencyOptions consistency;
+  SeenCountOptions seen_count;
+  CullingOptions culling;
+  InlierRatioOptions inlier_ratio;
+
+  /// Validates every group (all of them, whatever the policy, so that a config stays valid
+  /// when only the policy is switched); messages name the key, e.g.
+  /// "landmarks.consistency.confirm_prob = 1.5; must be in (0, 1)".
   [[nodiscard]] Status validate() const;
 };
 

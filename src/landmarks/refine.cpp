@@ -39,10 +39,8 @@ struct AnchoredResidual {
     const double z_m = rig.fx_px * rig.baseline_m / std::max(1e-3, static_cast<double>(obs.d_px));
     const Eigen::Vector3d uvd(obs.u_px, obs.v_px, obs.d_px);
     const MeasurementSigma sigma = predictionSigma(o.noise_model, rig, uvd, z_m, dist_m, turn_rad);
-    const LandmarkOptions& n = o.noise_model;
-    const double sigma_yaw = n.odom_rot_sigma_per_sqrt_rad * std::sqrt(std::abs(turn_rad)) +
-                             n.odom_rot_scale_sigma * std::abs(turn_rad) +
-                             n.odom_rot_sigma_per_m * dist_m;
+    const TrackerOptions& n = o.noise_model;
+    const double sigma_yaw = accumulatedOdometrySigma(n.odometry_noise, dist_m, turn_rad).yaw_rad;
     const double dd_yaw = obs.d_px * std::abs(obs.u_px - rig.cx_px) / rig.fx_px * sigma_yaw;
     const double odo2 = sigma.d_px * sigma.d_px - n.disparity_sigma_px * n.disparity_sigma_px;
     return std::sqrt(o.disparity_sigma_px * o.disparity_sigma_px + std::max(0.0, odo2) +

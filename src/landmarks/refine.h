@@ -26,7 +26,7 @@ struct RefineOptions {
   int max_iterations = 10;
   /// Weigh each observation by its odometry uncertainty relative to the anchor frame: its
   /// sigma becomes sqrt(disparity_sigma^2 + sigma_odo^2), sigma_odo the disparity error that
-  /// the odometry noise model (noise_model's odom_* fields, predictionSigma()) expects after
+  /// the odometry noise model (noise_model's odometry_noise, predictionSigma()) expects after
   /// the straight-line distance and the heading change between the two odometry poses, plus
   /// the heading error's effect on depth (d |u - cx| / fx sigma_yaw). Without it, observations
   /// from metres away count as much as the anchor's neighbours, and odometry drift pulled
@@ -44,8 +44,8 @@ struct RefineOptions {
   /// 48 (x1) are wrong, 21 and 18 of them with a good anchor (docs/landmarks.md,
   /// "Verification").
   double max_anchor_shift_sigmas = 1.0;
-  /// Noise model for weight_by_odometry (only its odom_* and disparity fields are used).
-  LandmarkOptions noise_model;
+  /// Noise model for weight_by_odometry (its odometry_noise and sigma fields are used).
+  TrackerOptions noise_model;
 };
 
 enum class RefineResult {

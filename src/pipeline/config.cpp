@@ -73,8 +73,23 @@ static_assert(fieldCount<frontend::SalientSadOptions>() == 17,
               "SalientSadOptions gained or lost a field: map it in visitSad (see above)");
 static_assert(fieldCount<frontend::FrontendOptions>() == 4,
               "FrontendOptions gained or lost a field: map it in visitFrontend (see above)");
-static_assert(fieldCount<landmarks::LandmarkOptions>() == 54,
+static_assert(fieldCount<landmarks::LandmarkOptions>() == 7,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
+// 15 fields, two of which (min/max_disparity_px) clampToRig sets from frontend.sad.
+static_assert(fieldCount<landmarks::TrackerOptions>() == 15,
+              "TrackerOptions gained or lost a field: map it in visitTracker (see above)");
+static_assert(fieldCount<OdometryNoise>() == 5,
+              "OdometryNoise gained or lost a field: map it in visitOdometryNoise (see above)");
+static_assert(fieldCount<landmarks::RefinementOptions>() == 2,
+              "RefinementOptions gained or lost a field: map it in visitRefine (see above)");
+static_assert(fieldCount<landmarks::ConsistencyOptions>() == 23,
+              "ConsistencyOptions gained or lost a field: map it in visitConsistency (see above)");
+static_assert(fieldCount<landmarks::SeenCountOptions>() == 2,
+              "SeenCountOptions gained or lost a field: map it in visitSeenCount (see above)");
+static_assert(fieldCount<landmarks::CullingOptions>() == 3,
+              "CullingOptions gained or lost a field: map it in visitCulling (see above)");
+static_assert(fieldCount<landmarks::InlierRatioOptions>() == 3,
+              "InlierRatioOptions gained or lost a field: map it in visitInlierRatio (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
 static_assert(fieldCount<PipelineConfig>() == 4,
@@ -152,85 +167,203 @@ void visitFrontend(O& o, V& v) {
 }
 
 template <typename O, typename V>
-void visitLandmarks(O& o, V& v) {
-  TWOCAM_CONFIG_KEY(
-      policy, "confirmation rule: consistency | wta-lrc | seen-count | culling | inlier-ratio");
-  TWOCAM_CONFIG_KEY(odom_trans_sigma_per_sqrt_m, "random translation error [m/sqrt(m)]");
-  TWOCAM_CONFIG_KEY(odom_trans_scale_sigma, "systematic relative distance error [-]");
-  TWOCAM_CONFIG_KEY(odom_rot_sigma_per_sqrt_rad, "random heading error [rad/sqrt(rad)]");
-  TWOCAM_CONFIG_KEY(odom_rot_scale_sigma, "systematic relative heading error [-]");
-  TWOCAM_CONFIG_KEY(odom_rot_sigma_per_m, "heading error per metre driven [rad/m]");
-  TWOCAM_CONFIG_KEY(pixel_sigma_px, "corner localisation noise [px], > 0");
-  TWOCAM_CONFIG_KEY(disparity_sigma_px, "disparity noise of a sub-pixel match [px], > 0");
-  TWOCAM_CONFIG_KEY(gate_chi2, "association gate on squared Mahalanobis distance in (u, v, d) [-]");
-  TWOCAM_CONFIG_KEY(visibility_border_px, "predictions nearer the edge are not visible [px]");
-  TWOCAM_CONFIG_KEY(min_depth_m, "nearer landmarks are not predicted [m], > 0");
-  TWOCAM_CONFIG_KEY(min_disparity_px,
-                    "frontend search range; twocam run sets it from frontend.sad [px]");
-  TWOCAM_CONFIG_KEY(max_disparity_px,
-                    "frontend search range; twocam run sets it from frontend.sad [px]");
+void visitOdometryNoise(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(trans_sigma_per_sqrt_m, "random translation error [m/sqrt(m)], in [0, 1]");
+  TWOCAM_CONFIG_KEY(trans_scale_sigma, "systematic relative distance error [-], in [0, 1]");
+  TWOCAM_CONFIG_KEY(rot_sigma_per_sqrt_rad, "random heading error [rad/sqrt(rad)], in [0, 1]");
+  TWOCAM_CONFIG_KEY(rot_scale_sigma, "systematic relative heading error [-], in [0, 1]");
+  TWOCAM_CONFIG_KEY(rot_sigma_per_m, "heading error per metre driven [rad/m], in [0, 1]");
+}
+
+template <typename O, typename V>
+void visitTracker(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(pixel_sigma_px, "corner localisation noise [px], in (0, 100]");
+  TWOCAM_CONFIG_KEY(disparity_sigma_px, "disparity noise of a sub-pixel match [px], in (0, 100]");
+  TWOCAM_CONFIG_KEY(gate_chi2,
+                    "association gate on squared Mahalanobis distance in (u, v, d) [-], in (0, "
+                    "1000]");
+  TWOCAM_CONFIG_KEY(visibility_border_px,
+                    "predictions nearer the edge are not visible [px], in [0, 10000]");
+  TWOCAM_CONFIG_KEY(min_depth_m, "nearer landmarks are not predicted [m], in (0, 1000]");
+  TWOCAM_CONFIG_KEY(max_consecutive_misses,
+                    "candidate dropped after this many misses [frames], in [0, 1000000]");
+  TWOCAM_CONFIG_KEY(max_confirmed_misses,
+                    "confirmed landmark retired after this many misses [frames], in [1, 1000000]");
+  TWOCAM_CONFIG_KEY(max_frames_out_of_view,
+                    "candidate dropped after this long out of view [frames], in [0, 1000000]");
+  TWOCAM_CONFIG_KEY(max_confirmed,
+                    "cap on confirmed landmarks, least recently seen dropped [-], in [1, 1e7]");
+  TWOCAM_CONFIG_KEY(max_candidates,
+                    "cap on live candidates, least confident dropped [-], in [1, 1e7]");
+  TWOCAM_CONFIG_KEY(max_observations,
+                    "observations kept per landmark for refinement [-], in [2, 1000]");
+  TWOCAM_CONFIG_KEY(seed_depth_edges,
+                    "seed candidates from shifted-window (depth edge) matches [bool]");
+  v.section("odometry_noise",
+            "odometry noise model of the gates (common/odometry_noise.h)",
+            [&](V& s) { visitOdometryNoise(o.odometry_noise, s); });
+}
+
+template <typename O, typename V>
+void visitRefine(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(enabled, "refine a landmark's depth with Ceres when confirmed [bool]");
+  TWOCAM_CONFIG_KEY(huber, "Huber loss scale of the refinement [sigma], in (0, 1000]");
+}
+
+template <typename O, typename V>
+void visitConsistency(O& o, V& v) {
   TWOCAM_CONFIG_KEY(prior_real,
                     "prior that a point's hypotheses hold the real match [-], in (0, 1)");
-  TWOCAM_CONFIG_KEY(prior_real_lone,
-                    "the same for a point with one answer, seeded without rivals [-], in (0, 1)");
   TWOCAM_CONFIG_KEY(detection_prob,
                     "re-detection probability of a visible landmark [-], in (0, 1)");
-  TWOCAM_CONFIG_KEY(max_hit_evidence, "cap on the evidence of one hit [nats], > 0");
+  TWOCAM_CONFIG_KEY(max_hit_evidence, "cap on the evidence of one hit [nats], in (0, 100]");
   TWOCAM_CONFIG_KEY(stability_evidence,
-                    "evidence of an anchor-consistent re-observation [nats], >= 0");
-  TWOCAM_CONFIG_KEY(evidence_step_m, "motion needed between counted evidence [m], >= 0");
+                    "evidence of an anchor-consistent re-observation [nats], in [0, 100]");
+  TWOCAM_CONFIG_KEY(evidence_step_m, "motion needed between counted evidence [m], in [0, 1000]");
   TWOCAM_CONFIG_KEY(anchor_gate_chi2,
-                    "anchor check gate on squared Mahalanobis distance (u, v, d) [-]");
+                    "anchor check gate on squared Mahalanobis distance (u, v, d) [-], in (0, "
+                    "1000]");
   TWOCAM_CONFIG_KEY(anchor_check_columns, "anchor check compares the column too [bool]");
-  TWOCAM_CONFIG_KEY(contradiction_evidence, "evidence of an anchor contradiction [nats], <= 0");
+  TWOCAM_CONFIG_KEY(contradiction_evidence,
+                    "evidence of an anchor contradiction [nats], in [-100, 0]");
   TWOCAM_CONFIG_KEY(confirm_prob, "existence probability needed to confirm [-], in (0, 1)");
-  TWOCAM_CONFIG_KEY(verify_min_offset_px, "phantom disparity offset, absolute part [px], >= 0");
-  TWOCAM_CONFIG_KEY(verify_relative_offset, "phantom disparity offset, fraction of d [-], >= 0");
-  TWOCAM_CONFIG_KEY(verify_llr, "evidence against the phantoms needed to confirm [nats], >= 0");
+  TWOCAM_CONFIG_KEY(verify_min_offset_px,
+                    "phantom disparity offset, absolute part [px], in [0, 10000]");
+  TWOCAM_CONFIG_KEY(verify_relative_offset,
+                    "phantom disparity offset, fraction of d [-], in [0, 100]");
+  TWOCAM_CONFIG_KEY(verify_llr,
+                    "evidence against the phantoms needed to confirm [nats], in [0, 1000]");
   TWOCAM_CONFIG_KEY(verify_own_rivals,
                     "complete hypothesis lists: phantoms at the rivals' disparities [bool]");
   TWOCAM_CONFIG_KEY(same_answer_px,
-                    "hypotheses of a corner this near each other are one answer [px], >= 0");
-  TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], >= 0");
-  TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], >= 1");
-  TWOCAM_CONFIG_KEY(min_parallax_deg,
-                    "consistency: viewpoint change needed to confirm [deg], in [0, 90)");
+                    "hypotheses of a corner this near each other are one answer [px], in [0, "
+                    "10000]");
+  TWOCAM_CONFIG_KEY(verify_chi2, "phantoms this far away make a hit count fully [-], in [0, 1000]");
+  TWOCAM_CONFIG_KEY(min_observations, "observations needed to confirm [-], in [1, 1000000]");
+  TWOCAM_CONFIG_KEY(min_parallax_deg, "viewpoint change needed to confirm [deg], in [0, 90)");
   TWOCAM_CONFIG_KEY(prune_prob,
                     "candidates below this probability are pruned [-], in [0, confirm_prob)");
-  TWOCAM_CONFIG_KEY(seen_count_min, "seen-count: observations needed [-], >= 1");
-  TWOCAM_CONFIG_KEY(seen_count_window_s, "seen-count: window they must fall into [s], > 0");
-  TWOCAM_CONFIG_KEY(culling_min_found_ratio, "culling: minimum found/visible [-], in [0, 1]");
-  TWOCAM_CONFIG_KEY(culling_min_observations, "culling: minimum observations [-], >= 1");
-  TWOCAM_CONFIG_KEY(culling_decision_frames,
-                    "culling: frames after creation the rule applies [-], >= 1");
-  TWOCAM_CONFIG_KEY(svo_converged_sigma_fraction,
-                    "inlier-ratio: convergence sigma / range [-], in (0, 1)");
-  TWOCAM_CONFIG_KEY(svo_min_inlier_ratio, "inlier-ratio: ratio needed to confirm [-], in (0, 1)");
-  TWOCAM_CONFIG_KEY(svo_prune_inlier_ratio, "inlier-ratio: seeds below this are dropped [-]");
-  TWOCAM_CONFIG_KEY(max_consecutive_misses,
-                    "candidate dropped after this many misses [frames], >= 0");
-  TWOCAM_CONFIG_KEY(max_confirmed_misses,
-                    "confirmed landmark retired after this many misses [frames], >= 1");
-  TWOCAM_CONFIG_KEY(max_frames_out_of_view,
-                    "candidate dropped after this long out of view [frames], >= 0");
-  TWOCAM_CONFIG_KEY(max_confirmed, "cap on confirmed landmarks, least recently seen dropped [-]");
-  TWOCAM_CONFIG_KEY(max_candidates, "cap on live candidates, least confident dropped [-]");
-  TWOCAM_CONFIG_KEY(max_observations, "observations kept per landmark for refinement [-], >= 2");
-  TWOCAM_CONFIG_KEY(refine, "refine a landmark's depth with Ceres when confirmed [bool]");
-  TWOCAM_CONFIG_KEY(seed_depth_edges,
-                    "seed candidates from shifted-window (depth edge) matches [bool]");
   TWOCAM_CONFIG_KEY(max_row_span_px,
-                    "an observation has row support when its span <= max(this, relative * d) [px]");
-  TWOCAM_CONFIG_KEY(max_row_span_relative, "relative part of that bound [-], >= 0");
+                    "an observation has row support when its span <= max(this, relative * d) "
+                    "[px], in [0, 10000]");
+  TWOCAM_CONFIG_KEY(max_row_span_relative, "relative part of that bound [-], in [0, 100]");
   TWOCAM_CONFIG_KEY(max_row_unsupported_fraction,
-                    "confirm only if at most this fraction of observations lacked row support [-]");
-  TWOCAM_CONFIG_KEY(refine_huber, "Huber loss scale of the refinement [sigma], > 0");
+                    "confirm only if at most this fraction of observations lacked row support "
+                    "[-], in [0, 1]");
   TWOCAM_CONFIG_KEY(unambiguous_confirmed_hits,
-                    "consistency: a confirmed landmark with several corners in its gate is not "
-                    "associated [bool]");
+                    "a confirmed landmark with several corners in its gate is not associated "
+                    "[bool]");
   TWOCAM_CONFIG_KEY(probe_unseen,
-                    "consistency: re-measure an unassociated candidate at its predicted pixel; one "
-                    "answer in its gate is not a miss [bool]");
+                    "re-measure an unassociated candidate at its predicted pixel; one answer in "
+                    "its gate is not a miss [bool]");
+}
+
+template <typename O, typename V>
+void visitSeenCount(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(min_observations, "observations needed [-], in [1, 1000000]");
+  TWOCAM_CONFIG_KEY(window_s, "window they must fall into [s], in (0, 1000000]");
+}
+
+template <typename O, typename V>
+void visitCulling(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(min_found_ratio, "minimum found/visible [-], in [0, 1]");
+  TWOCAM_CONFIG_KEY(min_observations, "minimum observations [-], in [1, 1000000]");
+  TWOCAM_CONFIG_KEY(decision_frames, "frames after creation the rule applies [-], in [1, 1000000]");
+}
+
+template <typename O, typename V>
+void visitInlierRatio(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(converged_sigma_fraction, "convergence sigma / range [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(min_inlier_ratio, "ratio needed to confirm [-], in (0, 1)");
+  TWOCAM_CONFIG_KEY(prune_inlier_ratio,
+                    "seeds below this are dropped [-], in [0, min_inlier_ratio)");
+}
+
+/// Keys of the flat landmarks section before the groups (2026-12-02): reading one is an error
+/// that names where it went.
+struct MovedKey {
+  const char* old_key;
+  const char* new_key;  // nullptr: removed, see `why`
+  const char* why;
+};
+constexpr MovedKey kMovedLandmarkKeys[] = {
+    {"odom_trans_sigma_per_sqrt_m", "tracker.odometry_noise.trans_sigma_per_sqrt_m", nullptr},
+    {"odom_trans_scale_sigma", "tracker.odometry_noise.trans_scale_sigma", nullptr},
+    {"odom_rot_sigma_per_sqrt_rad", "tracker.odometry_noise.rot_sigma_per_sqrt_rad", nullptr},
+    {"odom_rot_scale_sigma", "tracker.odometry_noise.rot_scale_sigma", nullptr},
+    {"odom_rot_sigma_per_m", "tracker.odometry_noise.rot_sigma_per_m", nullptr},
+    {"pixel_sigma_px", "tracker.pixel_sigma_px", nullptr},
+    {"disparity_sigma_px", "tracker.disparity_sigma_px", nullptr},
+    {"gate_chi2", "tracker.gate_chi2", nullptr},
+    {"visibility_border_px", "tracker.visibility_border_px", nullptr},
+    {"min_depth_m", "tracker.min_depth_m", nullptr},
+    {"max_consecutive_misses", "tracker.max_consecutive_misses", nullptr},
+    {"max_confirmed_misses", "tracker.max_confirmed_misses", nullptr},
+    {"max_frames_out_of_view", "tracker.max_frames_out_of_view", nullptr},
+    {"max_confirmed", "tracker.max_confirmed", nullptr},
+    {"max_candidates", "tracker.max_candidates", nullptr},
+    {"max_observations", "tracker.max_observations", nullptr},
+    {"seed_depth_edges", "tracker.seed_depth_edges", nullptr},
+    {"refine_huber", "refine.huber", nullptr},
+    {"prior_real", "consistency.prior_real", nullptr},
+    {"detection_prob", "consistency.detection_prob", nullptr},
+    {"max_hit_evidence", "consistency.max_hit_evidence", nullptr},
+    {"stability_evidence", "consistency.stability_evidence", nullptr},
+    {"evidence_step_m", "consistency.evidence_step_m", nullptr},
+    {"anchor_gate_chi2", "consistency.anchor_gate_chi2", nullptr},
+    {"anchor_check_columns", "consistency.anchor_check_columns", nullptr},
+    {"contradiction_evidence", "consistency.contradiction_evidence", nullptr},
+    {"confirm_prob", "consistency.confirm_prob", nullptr},
+    {"verify_min_offset_px", "consistency.verify_min_offset_px", nullptr},
+    {"verify_relative_offset", "consistency.verify_relative_offset", nullptr},
+    {"verify_llr", "consistency.verify_llr", nullptr},
+    {"verify_own_rivals", "consistency.verify_own_rivals", nullptr},
+    {"same_answer_px", "consistency.same_answer_px", nullptr},
+    {"verify_chi2", "consistency.verify_chi2", nullptr},
+    {"min_observations", "consistency.min_observations", nullptr},
+    {"min_parallax_deg", "consistency.min_parallax_deg", nullptr},
+    {"prune_prob", "consistency.prune_prob", nullptr},
+    {"max_row_span_px", "consistency.max_row_span_px", nullptr},
+    {"max_row_span_relative", "consistency.max_row_span_relative", nullptr},
+    {"max_row_unsupported_fraction", "consistency.max_row_unsupported_fraction", nullptr},
+    {"unambiguous_confirmed_hits", "consistency.unambiguous_confirmed_hits", nullptr},
+    {"probe_unseen", "consistency.probe_unseen", nullptr},
+    {"seen_count_min", "seen_count.min_observations", nullptr},
+    {"seen_count_window_s", "seen_count.window_s", nullptr},
+    {"culling_min_found_ratio", "culling.min_found_ratio", nullptr},
+    {"culling_min_observations", "culling.min_observations", nullptr},
+    {"culling_decision_frames", "culling.decision_frames", nullptr},
+    {"svo_converged_sigma_fraction", "inlier_ratio.converged_sigma_fraction", nullptr},
+    {"svo_min_inlier_ratio", "inlier_ratio.min_inlier_ratio", nullptr},
+    {"svo_prune_inlier_ratio", "inlier_ratio.prune_inlier_ratio", nullptr},
+    {"prior_real_lone", nullptr, "no default used it; a lone candidate takes prior_real"},
+    {"min_disparity_px", nullptr, "twocam run sets it from frontend.sad.min_disparity_px"},
+    {"max_disparity_px", nullptr, "twocam run sets it from frontend.sad.max_disparity_px"},
+};
+
+template <typename O, typename V>
+void visitLandmarks(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(
+      policy, "confirmation rule: consistency | wta-lrc | seen-count | culling | inlier-ratio");
+  v.section("tracker",
+            "prediction, gating, association, life cycle and caps, every policy",
+            [&](V& s) { visitTracker(o.tracker, s); });
+  v.section("refine", "multi-view refinement at confirmation (landmarks/refine.h)", [&](V& s) {
+    visitRefine(o.refine, s);
+  });
+  v.section("consistency", "the consistency policy (docs/landmarks.md)", [&](V& s) {
+    visitConsistency(o.consistency, s);
+  });
+  v.section("seen_count", "the seen-count baseline (MRPT CLandmarksMap)", [&](V& s) {
+    visitSeenCount(o.seen_count, s);
+  });
+  v.section("culling", "the culling baseline (ORB-SLAM map point culling)", [&](V& s) {
+    visitCulling(o.culling, s);
+  });
+  v.section("inlier_ratio", "the inlier-ratio baseline (SVO depth seed)", [&](V& s) {
+    visitInlierRatio(o.inlier_ratio, s);
+  });
+  for (const MovedKey& m : kMovedLandmarkKeys) v.moved(m.old_key, m.new_key, m.why);
 }
 
 template <typename O, typename V>
@@ -305,6 +438,9 @@ class Writer {
   void operator()(const char* key, landmarks::Policy value, const char* comment) {
     line(key, landmarks::policyName(value), comment);
   }
+
+  /// Old keys are not written.
+  void moved(const char* /*old_key*/, const char* /*new_key*/, const char* /*why*/) {}
 
   template <typename F>
   void section(const char* key, const char* comment, F&& visit) {
@@ -494,6 +630,16 @@ class Reader {
     }
   }
 
+  /// A key of an earlier layout: reading it fails with where it went (new_key, relative to this
+  /// map) or, for a removed key (new_key nullptr), why.
+  void moved(const char* old_key, const char* new_key, const char* why) {
+    const Node* n = find(old_key);
+    if (n == nullptr) return;
+    const std::string old_path = join(path_, old_key);
+    if (new_key != nullptr) fail(old_path + " moved to " + join(path_, new_key) + lineOf(*n));
+    fail(old_path + " was removed: " + why + lineOf(*n));
+  }
+
   /// Call after visiting: fails on the first key (in key order) that no field claimed.
   void rejectUnknownKeys() const {
     if (node_ == nullptr) return;
@@ -565,8 +711,8 @@ class Reader {
 }  // namespace
 
 Status PipelineConfig::validate() const {
-  if (Status s = frontend.validate(); !s) return s;   // already "frontend.harris.<key> = ..."
-  if (Status s = landmarks.validate(); !s) return s;  // already "landmarks.<key> = ..."
+  if (Status s = frontend.validate(); !s) return s;   // already "frontend.<group>.<key> = ..."
+  if (Status s = landmarks.validate(); !s) return s;  // already "landmarks.<group>.<key> = ..."
   if (Status s = mapping.validate(); !s) {
     if (s.message().rfind("mapping.", 0) == 0) return s;
     return Status::error("mapping: " + s.message());

@@ -4,7 +4,8 @@
 /// error messages and an example: docs/config.md; the defaults as a file: configs/default.yaml.
 ///
 ///   frontend:   {harris: {...HarrisOptions}, sad: {...SalientSadOptions}, source: sad}
-///   landmarks:  {...LandmarkOptions, policy: consistency}
+///   landmarks:  {policy: consistency, tracker: {..., odometry_noise: {...}}, refine: {...},
+///                consistency: {...}, seen_count: {...}, culling: {...}, inlier_ratio: {...}}
 ///   mapping:    {...MappingOptions}
 ///   seed:       1
 ///
@@ -35,9 +36,10 @@ frontend::FrontendOptions pipelineFrontendDefaults();
 struct PipelineConfig {
   /// Harris detection, 1-D SAD matching and the hypothesis source (pipelineFrontendDefaults()).
   frontend::FrontendOptions frontend = pipelineFrontendDefaults();
-  /// Landmark database: policy, noise model, confirmation and life cycle. Note that `twocam run`
-  /// sets landmarks.min_disparity_px / max_disparity_px from the frontend's SAD range (after
-  /// clamping it to the image width), so only frontend.sad's range matters there.
+  /// Landmark database: policy, tracker (noise model, gates, life cycle), refinement and each
+  /// policy's group. The tracker's disparity range is not a key: clampToRig sets it from the
+  /// frontend's SAD range (after clamping that to the image width). A key of the flat layout
+  /// before the groups ("landmarks.confirm_prob") is an error naming its new place.
   landmarks::LandmarkOptions landmarks;
   /// OctoMap occupancy mapping from confirmed landmarks.
   mapping::MappingOptions mapping;
@@ -51,14 +53,16 @@ struct PipelineConfig {
   uint64_t seed = 1;
 
   /// Calls each section's validate(); the message names the section, e.g.
-  /// "landmarks.gate_chi2 = -1; must be > 0" or "frontend.harris: k = 0.3; must be in (0, 0.25)".
+  /// "landmarks.tracker.gate_chi2 = -1; must be in (0, 1000]" or "frontend.harris: k = 0.3; must be
+  /// in (0, 0.25)".
   [[nodiscard]] Status validate() const;
 };
 
 /// Overrides the fields of *config whose keys appear in `yaml_text`, then validates the result.
 /// Start from PipelineConfig{} for "defaults plus file". Empty text (or only comments) changes
 /// nothing. On error *config is left untouched and the message names the key path and line, e.g.
-///   landmarks.gate_chi2: expected a number, got "abc" (line 12)
+///   landmarks.tracker.gate_chi2: expected a number, got "abc" (line 12)
+///   landmarks.confirm_prob moved to landmarks.consistency.confirm_prob (line 4)
 ///   unknown key frontend.harris.treshold (line 3); did you mean one of initial_threshold, ...?
 ///   YAML syntax error: line 2, column 1: flow sequence without a closing bracket
 /// Not thread-safe with other C-stdio writers to stderr: MRPT reports YAML syntax errors only
@@ -66,8 +70,8 @@ struct PipelineConfig {
 Status parseConfigYaml(const std::string& yaml_text, PipelineConfig* config);
 
 /// Reads the file at `path` and applies parseConfigYaml. Every error message starts with the
-/// path ("configs/x.yaml: landmarks.gate_chi2: ..."); a missing, unreadable or directory path
-/// is reported as such.
+/// path ("configs/x.yaml: landmarks.tracker.gate_chi2: ..."); a missing, unreadable or directory
+/// path is reported as such.
 Status loadConfigFile(const std::string& path, PipelineConfig* config);
 
 /// The complete effective config as YAML: every key of every section, in the struct order, each

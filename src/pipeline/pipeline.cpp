@@ -17,8 +17,8 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
   frontend::SalientSadOptions& sad = config->frontend.sad;
   sad.max_disparity_px = std::min(sad.max_disparity_px, rig.width_px - sad.window_width_px);
-  config->landmarks.max_disparity_px = sad.max_disparity_px;
-  config->landmarks.min_disparity_px = sad.min_disparity_px;
+  config->landmarks.tracker.max_disparity_px = sad.max_disparity_px;
+  config->landmarks.tracker.min_disparity_px = sad.min_disparity_px;
   return config->validate();
 }
 
@@ -33,6 +33,7 @@ void Pipeline::skipRowSupport() {
 
 Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out) {
   out->mapped_points_w.clear();
+  out->mapped_ids.clear();
   out->mapped_slots.clear();
   out->outside_map = false;
   out->times = StageTimes{};
@@ -49,13 +50,7 @@ Status Pipeline::process(int32_t frame,
                          const Pose2& odom_pose,
                          FrameOutput* out) {
   if (Status s = processFrontendOnly(stereo, out); !s) return s;
-  // Candidates whose corner was not detected are re-measured on this frame's images
-  // (LandmarkOptions::probe_unseen); replayed hypotheses (processHypotheses) have none.
-  const landmarks::DisparityProbe probe = [this, &stereo](const std::vector<Corner>& pixels,
-                                                          StereoHypotheses* h) {
-    return frontend_.measureAt(stereo, pixels, h);
-  };
-  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out, &probe);
+  return landmarksAndMap(frame, stereo.t_ns, odom_pose, hyps_, out, &stereo);
 }
 
 Status Pipeline::processHypotheses(int32_t frame,
@@ -64,6 +59,7 @@ Status Pipeline::processHypotheses(int32_t frame,
                                    const StereoHypotheses& hypotheses,
                                    FrameOutput* out) {
   out->mapped_points_w.clear();
+  out->mapped_ids.clear();
   out->mapped_slots.clear();
   out->outside_map = false;
   out->times = StageTimes{};
@@ -77,31 +73,49 @@ Status Pipeline::landmarksAndMap(int32_t frame,
                                  const Pose2& odom_pose,
                                  const StereoHypotheses& hyps,
                                  FrameOutput* out,
-                                 const landmarks::DisparityProbe* probe) {
+                                 const StereoFrame* images) {
   const auto t1 = std::chrono::steady_clock::now();
-  if (Status s = db_.update(frame, t_ns, odom_pose, hyps, &report_, probe); !s) {
+  if (Status s = db_.beginFrame(frame, t_ns, odom_pose, hyps, &report_); !s) {
     out->failure = FrameOutput::Failure::kLandmarks;
     return s;
   }
+  // Candidates whose corner was not detected are re-measured on this frame's images
+  // (ConsistencyOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its
+  // time counts in the landmark stage.
+  if (images != nullptr) {
+    const std::vector<Corner>& pixels = db_.probeRequests();
+    if (!pixels.empty()) {
+      Status s = frontend_.measureAt(*images, pixels, &probe_hyps_);
+      if (s) s = db_.addProbeResults(probe_hyps_);
+      if (!s) {
+        out->failure = FrameOutput::Failure::kLandmarks;
+        if (s.message().rfind("frame ", 0) == 0) return s;
+        return Status::error("frame " + std::to_string(frame) +
+                             ": re-measuring unseen candidates: " + s.message());
+      }
+    }
+  }
+  db_.finishFrame();
   out->times.landmarks_ms = msSince(t1);
 
   // Map: one ray per confirmed landmark observed in this frame (a landmark is listed once even
   // when several hypotheses of its corner pointed at it).
   const auto t2 = std::chrono::steady_clock::now();
-  const std::vector<landmarks::Landmark>& slots = db_.landmarks();
-  if (slot_mapped_.size() < slots.size()) slot_mapped_.resize(slots.size(), 0);
-  for (int32_t slot : report_.hypothesis_landmark) {
-    if (slot < 0) continue;
-    const landmarks::Landmark& l = slots[static_cast<size_t>(slot)];
-    if (l.state != landmarks::LandmarkState::kConfirmed || slot_mapped_[static_cast<size_t>(slot)])
-      continue;
-    slot_mapped_[static_cast<size_t>(slot)] = 1;
-    out->mapped_points_w.push_back(l.p_w);
+  // Read by id (FrameReport::hypothesis_landmark_id); the per-slot flags only deduplicate.
+  const landmarks::Landmark* const first = db_.landmarks().data();
+  if (slot_mapped_.size() < db_.landmarks().size()) slot_mapped_.resize(db_.landmarks().size(), 0);
+  for (uint64_t id : report_.hypothesis_landmark_id) {
+    if (id == 0) continue;
+    const landmarks::Landmark* l = db_.find(id);
+    if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) continue;
+    const auto slot = static_cast<size_t>(l - first);
+    if (slot_mapped_[slot]) continue;
+    slot_mapped_[slot] = 1;
+    out->mapped_points_w.push_back(l->p_w);
+    out->mapped_ids.push_back(l->id);
     out->mapped_slots.push_back(static_cast<uint32_t>(slot));
   }
-  for (int32_t slot : report_.hypothesis_landmark) {
-    if (slot >= 0) slot_mapped_[static_cast<size_t>(slot)] = 0;
-  }
+  for (uint32_t slot : out->mapped_slots) slot_mapped_[slot] = 0;
   out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
   octomap::OcTreeKey origin_key;
   const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()),

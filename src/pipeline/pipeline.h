@@ -35,7 +35,9 @@ struct FrameOutput {
   /// Confirmed landmarks observed in this frame (odometry world frame) [m]: the map's rays end
   /// there; and the left camera centre they start from [m].
   std::vector<Eigen::Vector3d> mapped_points_w;
-  /// Database slot of each mapped point (read the landmark through database().landmarks()).
+  /// Landmark id of each mapped point, parallel to mapped_points_w (database().find(id)).
+  std::vector<uint64_t> mapped_ids;
+  /// Deprecated: slot-based, use mapped_ids. Database slot of each mapped point.
   std::vector<uint32_t> mapped_slots;
   Eigen::Vector3d camera_origin_w = Eigen::Vector3d::Zero();
   /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
@@ -48,9 +50,12 @@ class Pipeline {
   /// `config` must be valid and its disparity range must fit the rig (see clampToRig).
   Pipeline(const StereoRig& rig, const PipelineConfig& config);
 
-  /// One stereo frame with its odometry pose. An error from the landmark database (NaN pose,
-  /// time going backwards) leaves the database and map unchanged: the caller may skip the frame
-  /// and go on. A frontend error (image of the wrong size) is returned as well.
+  /// One stereo frame with its odometry pose: frontend, then the landmark database's frame in
+  /// steps (LandmarkDatabase::beginFrame), with the unassociated candidates re-measured on the
+  /// frame's images (Frontend::measureAt, ConsistencyOptions::probe_unseen), then the map. An error
+  /// from the landmark database (NaN pose, time going backwards) leaves the database and map
+  /// unchanged: the caller may skip the frame and go on. A frontend error (image of the wrong
+  /// size) is returned as well; an error of the re-measurement leaves the frame unscored.
   Status process(int32_t frame,
                  const StereoFrame& stereo,
                  const Pose2& odom_pose,
@@ -66,7 +71,7 @@ class Pipeline {
 
   /// Landmarks and map from hypotheses made elsewhere (another matcher, e.g. the OpenCV
   /// reference in pipeline_bench); out->times.frontend_ms stays 0. Copies the hypotheses.
-  /// Without images there is nothing to re-measure, so LandmarkOptions::probe_unseen is idle.
+  /// Without images there is nothing to re-measure, so ConsistencyOptions::probe_unseen is idle.
   Status processHypotheses(int32_t frame,
                            int64_t t_ns,
                            const Pose2& odom_pose,
@@ -85,7 +90,7 @@ class Pipeline {
                          const Pose2& odom_pose,
                          const StereoHypotheses& hyps,
                          FrameOutput* out,
-                         const landmarks::DisparityProbe* probe);
+                         const StereoFrame* images);
 
   StereoRig rig_;
   frontend::Frontend frontend_;
@@ -93,6 +98,7 @@ class Pipeline {
   mapping::OccupancyMapper mapper_;
   StereoHypotheses hyps_;
   landmarks::FrameReport report_;
+  StereoHypotheses probe_hyps_;  // the re-measurement's output, reused between frames
   std::vector<uint8_t> slot_mapped_;
 };
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/odometry_noise.h"
 #include "common/random.h"
 #include "common/status.h"
 
@@ -147,15 +148,15 @@ void MotionSimulator::substep(double dt_s, double t_end_s) {
     state_.true_distance_m += std::abs(ds);
     state_.true_turned_rad += std::abs(dyaw);
 
-    // Wheel odometry from the same increment. No draw when a variance is zero, so noise-free
-    // runs are exact and do not depend on the generator.
+    // Wheel odometry from the same increment (the random part: common/odometry_noise.h). No draw
+    // when a variance is zero, so noise-free runs are exact and do not depend on the generator.
     double ds_odo = (1.0 + noise_.scale_error) * ds;
     double dyaw_odo = dyaw / (1.0 + noise_.wheel_base_error);
     if (noise_.sigma_per_m > 0.0 && ds != 0.0) {
-      ds_odo += noise_.sigma_per_m * std::sqrt(std::abs(ds)) * unit_normal_(rng_);
+      ds_odo += randomIncrementSigma(noise_.sigma_per_m, ds) * unit_normal_(rng_);
     }
     if (noise_.sigma_per_rad > 0.0 && dyaw != 0.0) {
-      dyaw_odo += noise_.sigma_per_rad * std::sqrt(std::abs(dyaw)) * unit_normal_(rng_);
+      dyaw_odo += randomIncrementSigma(noise_.sigma_per_rad, dyaw) * unit_normal_(rng_);
     }
     state_.odom_pose = integrateIncrement(state_.odom_pose, ds_odo, dyaw_odo);
   }

@@ -75,8 +75,8 @@ SyntheticStreamOptions benchStreamOptions() {
 LandmarkOptions benchLandmarkOptions(Load load) {
   LandmarkOptions options;
   if (load == Load::kTarget) {
-    options.max_frames_out_of_view = 1'000'000;
-    options.prune_prob = 0.005;
+    options.tracker.max_frames_out_of_view = 1'000'000;
+    options.consistency.prune_prob = 0.005;
   }
   return options;
 }

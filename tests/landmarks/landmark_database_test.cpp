@@ -111,7 +111,7 @@ TEST(LandmarkDatabase, CompleteListsAreVerifiedAgainstTheirOwnRivals) {
   so.complete_lists = true;
   const RunOutcome own = runSynthetic(so, options, 300);
   LandmarkOptions off = options;
-  off.verify_own_rivals = false;
+  off.consistency.verify_own_rivals = false;
   const RunOutcome ignored = runSynthetic(so, off, 300);
   std::printf("confirmed (correct): generic phantoms %d (%d), own rivals %d (%d)\n",
               generic.confirmed,
@@ -137,7 +137,7 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   const LandmarkOptions options;
   const RunOutcome same = runSynthetic(so, options, 300);
   LandmarkOptions strict = options;
-  strict.same_answer_px = 0.0;
+  strict.consistency.same_answer_px = 0.0;
   const RunOutcome apart = runSynthetic(so, strict, 300);
   std::printf(
       "every real match listed twice, confirmed (correct): twins the same answer %d (%d), "
@@ -149,52 +149,6 @@ TEST(LandmarkDatabase, TwinHypothesesAreTheSameAnswer) {
   EXPECT_GT(same.correct, kMinTwinGain * apart.correct);
   EXPECT_GE(static_cast<double>(same.correct) / same.confirmed, kMinPrecision)
       << "wrong: " << same.wrong_periodic << " periodic, " << same.wrong_random << " random";
-}
-
-TEST(LandmarkDatabase, LonePriorOnlyMovesLoneCandidates) {
-  // prior_real_lone is the prior of a point seeded without rivals. Equal to prior_real it is the
-  // same database; higher, lone candidates confirm sooner and more of them (the default keeps it
-  // equal: docs/landmarks.md, "Prior of a lone candidate"). Points seeded with rivals do not see
-  // it: they still share prior_real.
-  SyntheticStreamOptions so;
-  so.seed = 7;
-  LandmarkOptions options;
-  ASSERT_EQ(options.prior_real_lone, options.prior_real);
-  const RunOutcome base = runSynthetic(so, options, 300);
-  LandmarkOptions lone = options;
-  lone.prior_real_lone = 0.9;
-  const RunOutcome raised = runSynthetic(so, lone, 300);
-  std::printf("confirmed (correct) with a lone prior of 0.5: %d (%d), 0.9: %d (%d)\n",
-              base.confirmed,
-              base.correct,
-              raised.confirmed,
-              raised.correct);
-  EXPECT_GT(raised.correct, base.correct + base.correct / 10);
-  EXPECT_GE(static_cast<double>(raised.correct) / raised.confirmed, kMinPrecision);
-  // At creation a lone candidate's confidence is prior_real_lone; one with rivals shares
-  // prior_real with them.
-  const StereoRig rig = SyntheticStream::defaultRig();
-  SyntheticStream stream(rig, so);
-  LandmarkDatabase db(rig, lone);
-  SyntheticFrame frame;
-  FrameReport report;
-  stream.next(&frame);
-  ASSERT_TRUE(
-      db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
-  int lone_seen = 0;
-  int grouped_seen = 0;
-  for (uint32_t slot : report.created_slots) {
-    const Landmark& l = db.landmarks()[slot];
-    if (l.rivals_at_creation == 1) {
-      ++lone_seen;
-      EXPECT_FLOAT_EQ(l.confidence, 0.9f);
-    } else {
-      ++grouped_seen;
-      EXPECT_LE(l.confidence, static_cast<float>(lone.prior_real));
-    }
-  }
-  EXPECT_GT(lone_seen, 10);
-  EXPECT_GT(grouped_seen, 10);
 }
 
 TEST(LandmarkDatabase, WinnerTakesAllKeepsSpuriousBestMatches) {
@@ -330,7 +284,7 @@ TEST(LandmarkDatabase, CornersOnDepthEdgesAreNotSeededUnlessAsked) {
   LandmarkDatabase edged_db(rig, LandmarkOptions());
   ASSERT_TRUE(edged_db.update(0, frame.t_ns, frame.odom_pose, edged, &edged_report).isOk());
   LandmarkOptions keep;
-  keep.seed_depth_edges = true;
+  keep.tracker.seed_depth_edges = true;
   FrameReport keep_report;
   LandmarkDatabase keep_db(rig, keep);
   ASSERT_TRUE(keep_db.update(0, frame.t_ns, frame.odom_pose, edged, &keep_report).isOk());
@@ -388,7 +342,7 @@ TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
   EXPECT_LE(even, odd / 50);
   EXPECT_GT(odd, 100);
   LandmarkOptions off;
-  off.max_row_unsupported_fraction = 1.0;
+  off.consistency.max_row_unsupported_fraction = 1.0;
   int even_off = 0;
   int odd_off = 0;
   run(off, &even_off, &odd_off);
@@ -396,7 +350,7 @@ TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
   EXPECT_NEAR(odd_off, odd, 0.2 * odd);
   // A wider bound lets the 3 px spans pass.
   LandmarkOptions wide;
-  wide.max_row_span_px = 5.0;
+  wide.consistency.max_row_span_px = 5.0;
   int even_wide = 0;
   int odd_wide = 0;
   run(wide, &even_wide, &odd_wide);
@@ -455,7 +409,7 @@ TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
   const RunOutcome early = runSynthetic(so, LandmarkOptions(), kShort);
   const RunOutcome with_rule = runSynthetic(so, LandmarkOptions(), kFrames);
   LandmarkOptions nearest;
-  nearest.unambiguous_confirmed_hits = false;
+  nearest.consistency.unambiguous_confirmed_hits = false;
   const RunOutcome early_without = runSynthetic(so, nearest, kShort);
   const RunOutcome without_rule = runSynthetic(so, nearest, kFrames);
   std::printf(
@@ -490,7 +444,7 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
   so.seed = 5;
   so.num_points = 1500;
   LandmarkOptions options;
-  options.max_confirmed = 300;
+  options.tracker.max_confirmed = 300;
   const StereoRig rig = SyntheticStream::defaultRig();
   SyntheticStream stream(rig, so);
   LandmarkDatabase db(rig, options);
@@ -500,9 +454,9 @@ TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
     stream.next(&frame);
     ASSERT_TRUE(
         db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
-    ASSERT_LE(db.numConfirmed(), options.max_confirmed);
+    ASSERT_LE(db.numConfirmed(), options.tracker.max_confirmed);
   }
-  EXPECT_EQ(db.numConfirmed(), options.max_confirmed);
+  EXPECT_EQ(db.numConfirmed(), options.tracker.max_confirmed);
 }
 
 /// A frame's frontend output holding one corner at the rounded pixel of `uvd` with the single
@@ -550,18 +504,18 @@ TEST(LandmarkDatabase, ConfirmationNeedsAMinimumParallax) {
   const Eigen::Vector3d ahead = rig.T_b_cl.translation() + Eigen::Vector3d(4.0, 0.0, 0.0);
   const Eigen::Vector3d beside = ahead + Eigen::Vector3d(0.0, 1.0, 0.0);
   const LandmarkOptions options;
-  ASSERT_GT(options.min_parallax_deg, 0.0);
+  ASSERT_GT(options.consistency.min_parallax_deg, 0.0);
   EXPECT_EQ(confirmationFrame(options, ahead, kFrames), -1);
   const int beside_frame = confirmationFrame(options, beside, kFrames);
-  EXPECT_GE(beside_frame, options.min_observations - 1);
+  EXPECT_GE(beside_frame, options.consistency.min_observations - 1);
   EXPECT_LT(beside_frame, 10) << "0.1 deg is reached after 2 frames";
   // Without the rule the point ahead is confirmed as soon as the one beside.
   LandmarkOptions any = options;
-  any.min_parallax_deg = 0.0;
+  any.consistency.min_parallax_deg = 0.0;
   EXPECT_EQ(confirmationFrame(any, ahead, kFrames), beside_frame);
   // A rule the point beside cannot meet within the run (3.3 deg after 0.8 m).
   LandmarkOptions strict = options;
-  strict.min_parallax_deg = 5.0;
+  strict.consistency.min_parallax_deg = 5.0;
   EXPECT_EQ(confirmationFrame(strict, beside, kFrames), -1);
 }
 
@@ -592,26 +546,28 @@ ProbeRun runFlickeringPoint(const LandmarkOptions& options,
     EXPECT_TRUE(projectStereo(rig, p_cl, &uvd));
     const float d_true = static_cast<float>(uvd.z());
     const StereoHypotheses hyps = k == 0 ? lonePoint(uvd) : StereoHypotheses();
-    const DisparityProbe probe = [&](const std::vector<Corner>& pixels, StereoHypotheses* out) {
-      out->clear();
-      for (const Corner& c : pixels) {
+    // The pipeline's probe step, with a stand-in for Frontend::measureAt.
+    Status s = db.beginFrame(k, 100'000'000LL * k, pose, hyps, &report);
+    EXPECT_TRUE(s.isOk()) << s.message();
+    if (with_probe) {
+      StereoHypotheses measured;
+      for (const Corner& c : db.probeRequests()) {
         SalientPoint sp;
         sp.corner = c;
-        sp.first_hypothesis = static_cast<uint32_t>(out->hypotheses.size());
+        sp.first_hypothesis = static_cast<uint32_t>(measured.hypotheses.size());
         for (float d : answers(d_true)) {
           DisparityHypothesis h;
           h.d_px = d;
-          h.point_index = static_cast<uint32_t>(out->points.size());
-          out->hypotheses.push_back(h);
+          h.point_index = static_cast<uint32_t>(measured.points.size());
+          measured.hypotheses.push_back(h);
           ++sp.num_hypotheses;
         }
-        out->points.push_back(sp);
+        measured.points.push_back(sp);
       }
-      return Status::ok();
-    };
-    const Status s =
-        db.update(k, 100'000'000LL * k, pose, hyps, &report, with_probe ? &probe : nullptr);
-    EXPECT_TRUE(s.isOk()) << s.message();
+      s = db.addProbeResults(measured);
+      EXPECT_TRUE(s.isOk()) << s.message();
+    }
+    db.finishFrame();
     run.probed += report.probed;
     run.probe_found += report.probe_found;
   }
@@ -629,7 +585,7 @@ ProbeRun runFlickeringPoint(const LandmarkOptions& options,
 TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   constexpr int kFrames = 20;  // past max_consecutive_misses (8) and the prune probability
   const LandmarkOptions options;
-  ASSERT_TRUE(options.probe_unseen);
+  ASSERT_TRUE(options.consistency.probe_unseen);
   const auto truth = [](float d) { return std::vector<float>{d}; };
   const ProbeRun found = runFlickeringPoint(options, truth, true, kFrames);
   EXPECT_TRUE(found.alive);
@@ -639,7 +595,7 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   // Without the probe, or with the option off, the misses prune it.
   EXPECT_FALSE(runFlickeringPoint(options, truth, false, kFrames).alive);
   LandmarkOptions off = options;
-  off.probe_unseen = false;
+  off.consistency.probe_unseen = false;
   const ProbeRun unused = runFlickeringPoint(off, truth, true, kFrames);
   EXPECT_FALSE(unused.alive);
   EXPECT_EQ(unused.probed, 0);
@@ -672,359 +628,52 @@ TEST(LandmarkDatabase, ProbeFindingTheUnseenPointAtItsDepthIsNotAMiss) {
   EXPECT_EQ(runFlickeringPoint(seen, truth, true, kFrames).probed, 0);
 }
 
-TEST(LandmarkDatabase, ProbeErrorStopsTheUpdateWithAClearMessage) {
+TEST(LandmarkDatabase, ProbeResultAtAPixelNotAskedForIsAnErrorThatMarksNothing) {
   AfterFirstFrame first;
   ASSERT_TRUE(first.status.isOk()) << first.status.message();
   LandmarkDatabase& db = first.db;
   const SyntheticFrame& frame = first.frame;
   FrameReport& report = first.report;
-  const DisparityProbe failing = [](const std::vector<Corner>&, StereoHypotheses*) {
-    return Status::error("images differ in size");
-  };
-  // Nothing detected in the next frame: every candidate is unassociated, so the probe runs.
-  const Status s =
-      db.update(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report, &failing);
+  // Nothing detected in the next frame: every candidate is unassociated, so all are requested.
+  ASSERT_TRUE(
+      db.beginFrame(1, frame.t_ns + 1, frame.odom_pose, StereoHypotheses(), &report).isOk());
+  const std::vector<Corner> requests = db.probeRequests();
+  ASSERT_FALSE(requests.empty());
+  EXPECT_EQ(report.probed, static_cast<int>(requests.size()));
+  StereoHypotheses measured;
+  SalientPoint stray;
+  stray.corner.u_px = requests[0].u_px + 1;  // beside the requested pixel
+  stray.corner.v_px = requests[0].v_px;
+  measured.points.push_back(stray);
+  const Status s = db.addProbeResults(measured);
   ASSERT_FALSE(s.isOk());
-  EXPECT_NE(s.message().find("re-measuring unseen candidates: images differ in size"),
+  EXPECT_NE(s.message().find("re-measuring unseen candidates: the probe returned a pixel"),
             std::string::npos)
       << s.message();
+  EXPECT_EQ(report.probe_found, 0);
 }
 
-TEST(LandmarkModel, RivalProbabilitiesSumToAtMostOne) {
-  const double prior[3] = {0.2, 0.2, 0.1};
-  const double evidence[3] = {3.0, -2.0, 800.0};  // huge evidence must not overflow
-  double p[3];
-  normaliseRivals(prior, evidence, 3, 0.5, 0.0, p);
-  EXPECT_NEAR(p[0] + p[1] + p[2], 1.0, 1e-9);
-  EXPECT_GT(p[2], 0.999);
-  const double flat[2] = {0.0, 0.0};
-  normaliseRivals(prior, flat, 2, 0.6, 0.0, p);
-  EXPECT_NEAR(p[0], 0.2, 1e-12);  // no evidence: the prior
-}
-
-TEST(LandmarkModel, GateGrowsWithDistanceAndTurn) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  const LandmarkOptions options;
-  const Eigen::Vector3d uvd(400.0, 300.0, 20.0);
-  const MeasurementSigma s0 = predictionSigma(options, rig, uvd, 3.0, 0.0, 0.0);
-  const MeasurementSigma s1 = predictionSigma(options, rig, uvd, 3.0, 1.0, 0.0);
-  const MeasurementSigma s2 = predictionSigma(options, rig, uvd, 3.0, 1.0, 0.5);
-  EXPECT_DOUBLE_EQ(s0.u_px, options.pixel_sigma_px);
-  EXPECT_GT(s1.u_px, s0.u_px);
-  EXPECT_GT(s1.d_px, s0.d_px);
-  EXPECT_GT(s2.u_px, s1.u_px);
-}
-
-// A periodic-texture alias near the horizon under straight forward motion (the repetitive
-// world's wrongly confirmed landmarks before the column check): the corner is a real point at
-// 4.4 m, the alias disparity a fixed fraction of the real one. Its row hardly moves and its
-// disparity grows by less than a pixel, so row and disparity alone cannot tell it from a real
-// point 10 m away; its column moves away from the principal point like the real point's, not
-// like the alias depth predicts.
-TEST(LandmarkModel, AnchorCheckColumnsExposeAHorizonAliasUnderForwardMotion) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  const Eigen::Isometry3d T_w_cl_anchor = cameraPoseInWorld(Pose2{0.0, 0.0, 0.0}, rig.T_b_cl);
-  const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(Pose2{0.6, 0.0, 0.0}, rig.T_b_cl).inverse();
-  const double fb = rig.fx_px * rig.baseline_m;
-  const double u_a = 190.0;
-  const double v_a =
-      rig.cy_px - rig.fy_px * std::tan(5.0 * M_PI / 180.0) + 2.0;  // near the horizon
-  const double d_true = fb / 4.4;
-  const double d_alias = 0.44 * d_true;
-  const auto p_cla = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_true);
-  ASSERT_TRUE(p_cla.has_value());
-  Eigen::Vector3d seen;
-  ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p_cla), &seen));
-  const double d_alias_seen = d_alias * seen.z() / d_true;
-  constexpr double kPathM = 0.6;
-  for (const bool columns : {false, true}) {
-    LandmarkOptions options;
-    options.anchor_check_columns = columns;
-    const AnchorCheck real = checkAgainstAnchor(options,
-                                                rig,
-                                                T_w_cl_anchor,
-                                                u_a,
-                                                v_a,
-                                                d_true,
-                                                T_cl_w,
-                                                seen.x(),
-                                                seen.y(),
-                                                seen.z(),
-                                                kPathM,
-                                                0.0);
-    const AnchorCheck alias = checkAgainstAnchor(options,
-                                                 rig,
-                                                 T_w_cl_anchor,
-                                                 u_a,
-                                                 v_a,
-                                                 d_alias,
-                                                 T_cl_w,
-                                                 seen.x(),
-                                                 seen.y(),
-                                                 d_alias_seen,
-                                                 kPathM,
-                                                 0.0);
-    ASSERT_TRUE(real.valid && alias.valid);
-    EXPECT_LT(real.mahalanobis2, 0.01)
-        << "columns " << columns;  // exact observation of a real point
-    if (columns) {
-      EXPECT_GT(alias.mahalanobis2, 2.0 * options.anchor_gate_chi2);
-    } else {
-      EXPECT_LT(alias.mahalanobis2,
-                options.anchor_gate_chi2);  // what the row/disparity check misses
-    }
+TEST(LandmarkDatabase, ReportsIdsThatFindLooksUp) {
+  AfterFirstFrame first;
+  ASSERT_TRUE(first.status.isOk()) << first.status.message();
+  const LandmarkDatabase& db = first.db;
+  const FrameReport& report = first.report;
+  ASSERT_FALSE(report.created_ids.empty());
+  ASSERT_EQ(report.created_ids.size(), report.created_slots.size());
+  ASSERT_EQ(report.created_ids.size(), report.created_hypotheses.size());
+  for (size_t i = 0; i < report.created_ids.size(); ++i) {
+    const Landmark* l = db.find(report.created_ids[i]);
+    ASSERT_NE(l, nullptr);
+    EXPECT_EQ(l, &db.landmarks()[report.created_slots[i]]);
+    EXPECT_EQ(report.hypothesis_landmark_id[report.created_hypotheses[i]], l->id);
   }
-  // A 25 px column error contradicts a real point after straight driving; after a turn the
-  // heading error makes columns uninformative and the same error is within the gate.
-  LandmarkOptions options;
-  const AnchorCheck straight = checkAgainstAnchor(options,
-                                                  rig,
-                                                  T_w_cl_anchor,
-                                                  u_a,
-                                                  v_a,
-                                                  d_true,
-                                                  T_cl_w,
-                                                  seen.x() + 25.0,
-                                                  seen.y(),
-                                                  seen.z(),
-                                                  kPathM,
-                                                  0.0);
-  const AnchorCheck turned = checkAgainstAnchor(options,
-                                                rig,
-                                                T_w_cl_anchor,
-                                                u_a,
-                                                v_a,
-                                                d_true,
-                                                T_cl_w,
-                                                seen.x() + 25.0,
-                                                seen.y(),
-                                                seen.z(),
-                                                kPathM,
-                                                1.5);
-  ASSERT_TRUE(straight.valid && turned.valid);
-  EXPECT_GT(straight.mahalanobis2, options.anchor_gate_chi2);
-  EXPECT_LT(turned.mahalanobis2, options.anchor_gate_chi2);
-}
-
-// Verification sums the evidence of every consistent re-observation against the two periodic
-// phantoms (docs/landmarks.md, "Verification"). Driving straight towards a real point 4 m away,
-// a candidate at its true depth gathers evidence for itself against both phantoms and is
-// verified well before one frame's motion alone would separate them by verify_chi2 (the rule
-// until 2026-12-02); a candidate that is the phantom of a real point at another depth gathers
-// evidence against itself and never gets there.
-TEST(LandmarkModel, PhantomEvidenceVerifiesARealPointAndNotAPhantom) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  const LandmarkOptions options;
-  const Eigen::Isometry3d T_w_cl_anchor = cameraPoseInWorld(Pose2{0.0, 0.0, 0.0}, rig.T_b_cl);
-  const double fb = rig.fx_px * rig.baseline_m;
-  const double u_a = 420.0;
-  const double v_a = 300.0;
-  const double d_real = fb / 4.0;
-  // A candidate that is a phantom: its anchor disparity is the real one's times a fixed ratio,
-  // the real point sitting on the anchor ray at the lower phantom disparity of the test.
-  const double offset =
-      std::max(options.verify_min_offset_px, options.verify_relative_offset * d_real);
-  const double d_phantom = d_real * d_real / (d_real - offset);
-  const auto p_real = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_real);
-  ASSERT_TRUE(p_real.has_value());
-  constexpr double kStepM = 0.027;  // one frame at 0.4 m/s and 15 Hz
-  double llr_real[2] = {0.0, 0.0};
-  double llr_phantom[2] = {0.0, 0.0};
-  int verified_frame = -1;
-  int discriminative_frame = -1;
-  for (int k = 1; k <= 30; ++k) {
-    const double path_m = k * kStepM;
-    const Eigen::Isometry3d T_cl_w =
-        cameraPoseInWorld(Pose2{path_m, 0.0, 0.0}, rig.T_b_cl).inverse();
-    Eigen::Vector3d seen;
-    ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p_real), &seen));
-    const AnchorCheck real = checkAgainstAnchor(options,
-                                                rig,
-                                                T_w_cl_anchor,
-                                                u_a,
-                                                v_a,
-                                                d_real,
-                                                T_cl_w,
-                                                seen.x(),
-                                                seen.y(),
-                                                seen.z(),
-                                                path_m,
-                                                0.0);
-    const AnchorCheck phantom = checkAgainstAnchor(options,
-                                                   rig,
-                                                   T_w_cl_anchor,
-                                                   u_a,
-                                                   v_a,
-                                                   d_phantom,
-                                                   T_cl_w,
-                                                   seen.x(),
-                                                   seen.y(),
-                                                   seen.z() * d_phantom / d_real,
-                                                   path_m,
-                                                   0.0);
-    ASSERT_TRUE(real.valid && phantom.valid);
-    EXPECT_LT(real.mahalanobis2, 0.01);
-    if (phantom.mahalanobis2 <= options.anchor_gate_chi2) {  // a contradiction is not summed
-      for (int i = 0; i < 2; ++i) llr_phantom[i] += phantom.phantom_llr[i];
-    }
-    for (int i = 0; i < 2; ++i) {
-      EXPECT_GE(real.phantom_llr[i], 0.0)
-          << "frame " << k;  // an exact observation favours the truth
-      llr_real[i] += real.phantom_llr[i];
-    }
-    if (verified_frame < 0 && std::min(llr_real[0], llr_real[1]) >= options.verify_llr)
-      verified_frame = k;
-    if (discriminative_frame < 0 && real.discriminative) discriminative_frame = k;
+  for (size_t j = 0; j < report.hypothesis_landmark.size(); ++j) {
+    const int32_t slot = report.hypothesis_landmark[j];
+    EXPECT_EQ(report.hypothesis_landmark_id[j],
+              slot < 0 ? 0 : db.landmarks()[static_cast<size_t>(slot)].id);
   }
-  std::printf(
-      "real point verified at frame %d (one frame's motion separates at %d); phantom's evidence "
-      "%.1f, %.1f\n",
-      verified_frame,
-      discriminative_frame,
-      llr_phantom[0],
-      llr_phantom[1]);
-  ASSERT_GT(verified_frame, 0) << "evidence " << llr_real[0] << ", " << llr_real[1];
-  EXPECT_GT(verified_frame, 1);  // one small step is not enough
-  EXPECT_TRUE(discriminative_frame < 0 || verified_frame < discriminative_frame)
-      << "verified at frame " << verified_frame << ", one frame's motion separates at "
-      << discriminative_frame;
-  // The phantom's own evidence favours the real point it is a phantom of.
-  EXPECT_LT(llr_phantom[0], 0.0);
-  EXPECT_LT(std::min(llr_phantom[0], llr_phantom[1]), options.verify_llr);
-}
-
-// Explicit phantom disparities replace the generic offsets in phantom_llr (not in
-// discriminative); a side given none has no phantom to beat.
-TEST(LandmarkModel, OwnPhantomDisparitiesReplaceTheGenericOffsets) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  const LandmarkOptions options;
-  const Eigen::Isometry3d T_w_cl_anchor = cameraPoseInWorld(Pose2{0.0, 0.0, 0.0}, rig.T_b_cl);
-  const double u_a = 420.0;
-  const double v_a = 300.0;
-  const double d_a = 20.0;
-  const auto p = triangulateRectified(rig, Eigen::Vector2d(u_a, v_a), d_a);
-  ASSERT_TRUE(p.has_value());
-  const Eigen::Isometry3d T_cl_w = cameraPoseInWorld(Pose2{0.3, 0.0, 0.0}, rig.T_b_cl).inverse();
-  Eigen::Vector3d seen;
-  ASSERT_TRUE(projectStereo(rig, T_cl_w * (T_w_cl_anchor * *p), &seen));
-  seen.z() += 0.2;  // a little noise, so no likelihood ratio is exactly symmetric
-  const auto check = [&](const float* phantoms) {
-    return checkAgainstAnchor(options,
-                              rig,
-                              T_w_cl_anchor,
-                              u_a,
-                              v_a,
-                              d_a,
-                              T_cl_w,
-                              seen.x(),
-                              seen.y(),
-                              seen.z(),
-                              0.3,
-                              0.0,
-                              phantoms);
-  };
-  const AnchorCheck generic = check(nullptr);
-  const double offset =
-      std::max(options.verify_min_offset_px, options.verify_relative_offset * d_a);
-  const float same[2] = {static_cast<float>(d_a - offset), static_cast<float>(d_a + offset)};
-  const AnchorCheck as_generic = check(same);
-  for (int k = 0; k < 2; ++k) EXPECT_NEAR(as_generic.phantom_llr[k], generic.phantom_llr[k], 1e-6);
-  const float one_far_rival[2] = {0.0f, 40.0f};
-  const AnchorCheck own = check(one_far_rival);
-  EXPECT_EQ(own.phantom_llr[0], kPhantomImpossible);      // no rival below
-  EXPECT_GT(own.phantom_llr[1], generic.phantom_llr[1]);  // a farther phantom is told apart sooner
-  EXPECT_EQ(own.discriminative, generic.discriminative);  // still the generic offsets
-  EXPECT_EQ(own.mahalanobis2, generic.mahalanobis2);
-}
-
-TEST(LandmarkModel, SvoSeedConvergesOnInliersAndDoubtsOutliers) {
-  std::mt19937_64 rng(3);
-  std::normal_distribution<double> noise(0.0, 0.005);
-  std::uniform_real_distribution<double> uniform(0.0, 5.0);
-  SvoSeed good{0.4, 25.0 / 36.0, 10.0, 10.0, 5.0};
-  SvoSeed bad = good;
-  for (int k = 0; k < 30; ++k) {
-    updateSvoSeed(0.5 + noise(rng), 0.005 * 0.005, &good);
-    updateSvoSeed(uniform(rng), 0.005 * 0.005, &bad);
-  }
-  EXPECT_NEAR(good.mu, 0.5, 0.01);
-  // From Beta(10, 10) (ratio 0.5), 30 inliers lift the ratio to about 0.8 and 30 uniform
-  // outliers push it to about 0.3.
-  EXPECT_GT(good.a / (good.a + good.b), 0.75);
-  EXPECT_LT(bad.a / (bad.a + bad.b), 0.4);
-}
-
-TEST(Refine, RecoversPointFromNoisyViewsDespiteAnOutlier) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  const Eigen::Vector3d p_true(4.0, 0.5, 1.2);
-  std::mt19937_64 rng(9);
-  std::normal_distribution<double> noise(0.0, 0.3);
-  std::vector<Observation> obs;
-  for (int k = 0; k < 12; ++k) {
-    Observation o;
-    o.frame = k;
-    o.odom_pose = {0.1 * k, 0.02 * k, 0.01 * k};
-    const Eigen::Vector3d p_cl = cameraPoseInWorld(o.odom_pose, rig.T_b_cl).inverse() * p_true;
-    Eigen::Vector3d uvd;
-    ASSERT_TRUE(projectStereo(rig, p_cl, &uvd));
-    o.u_px = static_cast<float>(uvd.x() + noise(rng));
-    o.v_px = static_cast<float>(uvd.y() + noise(rng));
-    o.d_px = static_cast<float>(uvd.z() + noise(rng));
-    if (k == 5) o.d_px += 8.0f;  // a wrong association
-    obs.push_back(o);
-  }
-  Eigen::Vector3d p = p_true + Eigen::Vector3d(0.3, -0.2, 0.1);
-  ASSERT_EQ(refineLandmark(rig, rig.T_b_cl, obs, RefineOptions(), &p), RefineResult::kOk);
-  // 12 views with 0.3 px noise at ~4 m: a few centimetres.
-  constexpr double kRefineTolM = 0.05;
-  EXPECT_LT((p - p_true).norm(), kRefineTolM) << p.transpose();
-  std::vector<Observation> one(obs.begin(), obs.begin() + 1);
-  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, one, RefineOptions(), &p),
-            RefineResult::kTooFewObservations);
-
-  // Every later view 2 px nearer than the anchor says (odometry drift, or a neighbouring
-  // corner): the refinement would move the anchor disparity by ~2 px > 2 sigma and is refused.
-  std::vector<Observation> drifted = obs;
-  drifted[5].d_px -= 8.0f;
-  for (size_t k = 1; k < drifted.size(); ++k) drifted[k].d_px += 2.0f;
-  Eigen::Vector3d q = p_true;
-  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, drifted, RefineOptions(), &q),
-            RefineResult::kDisagreesWithAnchor);
-  EXPECT_EQ(q, p_true);  // unchanged
-  RefineOptions permissive;
-  permissive.max_anchor_shift_sigmas = 100.0;
-  EXPECT_EQ(refineLandmark(rig, rig.T_b_cl, drifted, permissive, &q), RefineResult::kOk);
-  EXPECT_GT((q - p_true).norm(), kRefineTolM);
-}
-
-TEST(LandmarkOptions, ValidateNamesTheKey) {
-  LandmarkOptions o;
-  EXPECT_TRUE(o.validate().isOk());
-  o.confirm_prob = 1.5;
-  EXPECT_NE(o.validate().message().find("confirm_prob"), std::string::npos);
-  o = LandmarkOptions();
-  o.max_row_unsupported_fraction = 1.5;
-  EXPECT_NE(o.validate().message().find("max_row_unsupported_fraction"), std::string::npos);
-  o = LandmarkOptions();
-  o.max_row_span_px = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(o.validate().message().find("max_row_span_px"), std::string::npos);
-  o = LandmarkOptions();
-  o.same_answer_px = -0.5;
-  EXPECT_NE(o.validate().message().find("same_answer_px"), std::string::npos);
-  o = LandmarkOptions();
-  o.prior_real_lone = 1.0;
-  EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
-  o.prior_real_lone = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(o.validate().message().find("prior_real_lone"), std::string::npos);
-  o = LandmarkOptions();
-  o.min_parallax_deg = 90.0;
-  EXPECT_NE(o.validate().message().find("min_parallax_deg"), std::string::npos);
-  o.min_parallax_deg = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(o.validate().message().find("min_parallax_deg"), std::string::npos);
-  Policy p;
-  EXPECT_TRUE(parsePolicy("seen-count", &p).isOk());
-  EXPECT_EQ(p, Policy::kSeenCount);
-  EXPECT_FALSE(parsePolicy("best", &p).isOk());
+  EXPECT_EQ(db.find(0), nullptr);
+  for (uint64_t id : report.removed_ids) EXPECT_EQ(db.find(id), nullptr);
 }
 
 }  // namespace

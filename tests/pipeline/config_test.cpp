@@ -25,7 +25,8 @@ namespace fs = std::filesystem;
 constexpr int kHarrisKeys = 12;      // HarrisOptions::simd comes from frontend.simd
 constexpr int kSadKeys = 16;         // SalientSadOptions::simd comes from frontend.simd
 constexpr int kFrontendOwnKeys = 2;  // source, simd
-constexpr int kLandmarkKeys = 54;
+constexpr int kLandmarkKeys = 51;    // policy + tracker 12 + odometry_noise 5 + refine 2 +
+                                     // consistency 23 + seen_count 2 + culling 3 + inlier_ratio 3
 constexpr int kMappingKeys = 8;
 constexpr int kTopLevelKeys = 1;  // seed
 
@@ -94,13 +95,14 @@ TEST(PipelineConfig, DefaultsRoundTripExactly) {
   const std::string yaml = toYaml(PipelineConfig{});
   PipelineConfig parsed;
   parsed.seed = 99;  // must be overwritten by the text
-  parsed.landmarks.gate_chi2 = 3.0;
+  parsed.landmarks.tracker.gate_chi2 = 3.0;
   const Status s = parseConfigYaml(yaml, &parsed);
   ASSERT_TRUE(s.isOk()) << s.message();
   EXPECT_EQ(toYaml(parsed), yaml);
   EXPECT_EQ(parsed.seed, PipelineConfig{}.seed);
-  EXPECT_EQ(parsed.landmarks.gate_chi2, PipelineConfig{}.landmarks.gate_chi2);
-  EXPECT_EQ(parsed.landmarks.svo_converged_sigma_fraction, 1.0 / 200.0);  // not a short decimal
+  EXPECT_EQ(parsed.landmarks.tracker.gate_chi2, PipelineConfig{}.landmarks.tracker.gate_chi2);
+  EXPECT_EQ(parsed.landmarks.inlier_ratio.converged_sigma_fraction,
+            1.0 / 200.0);  // not a short decimal
   EXPECT_EQ(parsed.frontend.harris.k, 0.04f);
 }
 
@@ -113,12 +115,12 @@ TEST(PipelineConfig, AwkwardValuesRoundTripBitForBit) {
   c.frontend.sad.cost_ratio = 1.0f / 3.0f + 1.0f;
   c.frontend.source = frontend::HypothesisSource::kCornerPairing;
   c.landmarks.policy = landmarks::Policy::kInlierRatio;
-  c.landmarks.gate_chi2 = 0.1 + 0.2;
-  c.landmarks.odom_rot_sigma_per_m = 1e-300;
-  c.landmarks.contradiction_evidence = -0.0;
-  c.landmarks.prior_real = std::nextafter(0.5, 1.0);
-  c.landmarks.max_confirmed = std::numeric_limits<int>::max();
-  c.landmarks.refine = false;
+  c.landmarks.tracker.gate_chi2 = 0.1 + 0.2;
+  c.landmarks.tracker.odometry_noise.rot_sigma_per_m = 1e-300;
+  c.landmarks.consistency.contradiction_evidence = -0.0;
+  c.landmarks.consistency.prior_real = std::nextafter(0.5, 1.0);
+  c.landmarks.tracker.max_confirmed = 10'000'000;  // the upper bound
+  c.landmarks.refine.enabled = false;
   c.mapping.resolution_m = 1.0 / 3.0;
   c.mapping.insert_free_space = false;
   c.seed = std::numeric_limits<uint64_t>::max();
@@ -133,10 +135,10 @@ TEST(PipelineConfig, AwkwardValuesRoundTripBitForBit) {
   EXPECT_EQ(parsed.frontend.simd, frontend::Simd::kScalar);
   EXPECT_EQ(parsed.frontend.source, frontend::HypothesisSource::kCornerPairing);
   EXPECT_EQ(parsed.landmarks.policy, landmarks::Policy::kInlierRatio);
-  EXPECT_EQ(parsed.landmarks.gate_chi2, 0.1 + 0.2);
-  EXPECT_EQ(parsed.landmarks.odom_rot_sigma_per_m, 1e-300);
-  EXPECT_TRUE(std::signbit(parsed.landmarks.contradiction_evidence));
-  EXPECT_EQ(parsed.landmarks.prior_real, c.landmarks.prior_real);
+  EXPECT_EQ(parsed.landmarks.tracker.gate_chi2, 0.1 + 0.2);
+  EXPECT_EQ(parsed.landmarks.tracker.odometry_noise.rot_sigma_per_m, 1e-300);
+  EXPECT_TRUE(std::signbit(parsed.landmarks.consistency.contradiction_evidence));
+  EXPECT_EQ(parsed.landmarks.consistency.prior_real, c.landmarks.consistency.prior_real);
   EXPECT_EQ(parsed.mapping.resolution_m, 1.0 / 3.0);
   EXPECT_EQ(parsed.seed, std::numeric_limits<uint64_t>::max());
 }
@@ -183,12 +185,12 @@ TEST(PipelineConfig, ReadsEveryKeyItWrites) {
 
 TEST(PipelineConfig, OverridesSingleValuesAndKeepsTheRest) {
   PipelineConfig start;
-  start.landmarks.max_candidates = 777;  // not in the text: must survive
+  start.landmarks.tracker.max_candidates = 777;  // not in the text: must survive
   PipelineConfig expected = start;
   expected.frontend.harris.k = 0.05f;
   expected.frontend.sad.window_width_px = 15;
   expected.frontend.source = frontend::HypothesisSource::kCornerPairing;
-  expected.landmarks.gate_chi2 = 7.81;
+  expected.landmarks.tracker.gate_chi2 = 7.81;
   expected.landmarks.policy = landmarks::Policy::kWtaLrc;
   expected.mapping.resolution_m = 0.1;
   expected.mapping.insert_free_space = false;
@@ -202,7 +204,7 @@ frontend:
     window_width_px: 15
   source: pairing
 landmarks:
-  gate_chi2: 7.81     # comments are fine
+  tracker: {gate_chi2: 7.81}     # comments are fine
   policy: wta-lrc
 mapping:
   resolution_m: 0.1
@@ -212,7 +214,49 @@ seed: 42
                                    &parsed);
   ASSERT_TRUE(s.isOk()) << s.message();
   EXPECT_EQ(toYaml(parsed), toYaml(expected));
-  EXPECT_EQ(parsed.landmarks.max_candidates, 777);
+  EXPECT_EQ(parsed.landmarks.tracker.max_candidates, 777);
+}
+
+// The flat landmarks section of before the groups: each old key names where it went.
+TEST(PipelineConfig, OldFlatLandmarkKeysNameTheirNewPlace) {
+  PipelineConfig config;
+  Status s = parseConfigYaml("landmarks: {confirm_prob: 0.8}", &config);
+  ASSERT_FALSE(s.isOk());
+  EXPECT_EQ(s.message(),
+            "landmarks.confirm_prob moved to landmarks.consistency.confirm_prob (line 1)");
+  expectError("landmarks:\n  policy: culling\n  gate_chi2: 9\n",
+              "landmarks.gate_chi2 moved to landmarks.tracker.gate_chi2",
+              "(line 3)");
+  expectError("landmarks: {odom_rot_sigma_per_m: 0}",
+              "moved to landmarks.tracker.odometry_noise.rot_sigma_per_m");
+  expectError("landmarks: {seen_count_min: 3}", "moved to landmarks.seen_count.min_observations");
+  expectError("landmarks: {svo_min_inlier_ratio: 0.5}",
+              "moved to landmarks.inlier_ratio.min_inlier_ratio");
+  expectError("landmarks: {refine_huber: 2}", "moved to landmarks.refine.huber");
+  // Removed keys say why.
+  expectError("landmarks: {prior_real_lone: 0.9}", "landmarks.prior_real_lone was removed");
+  expectError("landmarks: {max_disparity_px: 40}",
+              "landmarks.max_disparity_px was removed",
+              "frontend.sad.max_disparity_px");
+  // The new places read.
+  ASSERT_TRUE(parseConfigYaml("landmarks: {consistency: {confirm_prob: 0.8}, tracker: "
+                              "{odometry_noise: {rot_sigma_per_m: 0}}, refine: {huber: 2}}",
+                              &config)
+                  .isOk());
+  EXPECT_EQ(config.landmarks.consistency.confirm_prob, 0.8);
+  EXPECT_EQ(config.landmarks.tracker.odometry_noise.rot_sigma_per_m, 0.0);
+  EXPECT_EQ(config.landmarks.refine.huber, 2.0);
+}
+
+// Values an int can hold but the tracker cannot honour are refused with the key.
+TEST(PipelineConfig, LandmarkOptionsHaveUpperBounds) {
+  expectError("landmarks: {tracker: {max_candidates: 2147483647}}",
+              "landmarks.tracker.max_candidates = 2147483647",
+              "in [1, 10000000]");
+  expectError("landmarks: {culling: {decision_frames: 2147483647}}",
+              "landmarks.culling.decision_frames");
+  expectError("landmarks: {tracker: {odometry_noise: {trans_sigma_per_sqrt_m: 1e300}}}",
+              "landmarks.tracker.odometry_noise.trans_sigma_per_sqrt_m");
 }
 
 TEST(PipelineConfig, EachSectionAlone) {
@@ -227,10 +271,12 @@ TEST(PipelineConfig, EachSectionAlone) {
        [](const PipelineConfig& c) { return c.frontend.sad.zero_mean; }},
       {"frontend: {simd: scalar}",
        [](const PipelineConfig& c) { return c.frontend.simd == frontend::Simd::kScalar; }},
-      {"landmarks: {min_observations: 6}",
-       [](const PipelineConfig& c) { return c.landmarks.min_observations == 6; }},
+      {"landmarks: {consistency: {min_observations: 6}}",
+       [](const PipelineConfig& c) { return c.landmarks.consistency.min_observations == 6; }},
       {"landmarks: {policy: seen-count}",
-       [](const PipelineConfig& c) { return c.landmarks.policy == landmarks::Policy::kSeenCount; }},
+       [](const PipelineConfig& c) {
+         return std::string(landmarks::policyName(c.landmarks.policy)) == "seen-count";
+       }},
       {"mapping: {max_range_m: 4.5}",
        [](const PipelineConfig& c) { return c.mapping.max_range_m == 4.5; }},
       {"seed: 7", [](const PipelineConfig& c) { return c.seed == 7u; }},
@@ -247,17 +293,19 @@ TEST(PipelineConfig, EachSectionAlone) {
 }
 
 TEST(PipelineConfig, RejectsWrongTypes) {
-  expectError("landmarks:\n  gate_chi2: abc\n",
-              "landmarks.gate_chi2",
-              "expected a number, got \"abc\" (line 2)");
+  expectError("landmarks:\n  tracker:\n    gate_chi2: abc\n",
+              "landmarks.tracker.gate_chi2",
+              "expected a number, got \"abc\" (line 3)");
   expectError("frontend: {harris: {k: fast}}", "frontend.harris.k", "expected a number");
   expectError("frontend: {sad: {window_width_px: 2.5}}",
               "frontend.sad.window_width_px",
               "expected an integer, got \"2.5\"");
-  expectError(
-      "landmarks: {min_observations: 4.0}", "landmarks.min_observations", "expected an integer");
-  expectError(
-      "landmarks: {min_observations: 1e3}", "landmarks.min_observations", "expected an integer");
+  expectError("landmarks: {consistency: {min_observations: 4.0}}",
+              "landmarks.consistency.min_observations",
+              "expected an integer");
+  expectError("landmarks: {consistency: {min_observations: 1e3}}",
+              "landmarks.consistency.min_observations",
+              "expected an integer");
   expectError(
       "mapping: {insert_free_space: 2}", "mapping.insert_free_space", "expected true or false");
   expectError("frontend: {harris: {bucketing: maybe}}",
@@ -266,22 +314,28 @@ TEST(PipelineConfig, RejectsWrongTypes) {
   expectError("seed: -1", "seed", "expected a non-negative integer");
   expectError("seed: 1.5", "seed", "expected a non-negative integer");
   expectError("seed: {a: 1}", "seed", "got a map");
-  expectError("landmarks: {gate_chi2: [1, 2]}", "landmarks.gate_chi2", "got a sequence");
+  expectError(
+      "landmarks: {tracker: {gate_chi2: [1, 2]}}", "landmarks.tracker.gate_chi2", "got a sequence");
 }
 
 TEST(PipelineConfig, RejectsNonFiniteAndOutOfRangeNumbers) {
   for (const char* v :
        {".nan", ".NaN", ".inf", "-.inf", "+.inf", "nan", "inf", "-inf", "infinity"}) {
     SCOPED_TRACE(v);
-    expectError(std::string("landmarks: {gate_chi2: ") + v + "}", "landmarks.gate_chi2", "finite");
+    expectError(std::string("landmarks: {tracker: {gate_chi2: ") + v + "}}",
+                "landmarks.tracker.gate_chi2",
+                "finite");
     expectError(std::string("frontend: {harris: {threshold_max: ") + v + "}}",
                 "frontend.harris.threshold_max",
                 "finite");
   }
-  expectError("landmarks: {gate_chi2: 1e400}", "landmarks.gate_chi2", "out of range");
+  expectError(
+      "landmarks: {tracker: {gate_chi2: 1e400}}", "landmarks.tracker.gate_chi2", "out of range");
   expectError(
       "frontend: {harris: {threshold_max: 1e39}}", "frontend.harris.threshold_max", "out of range");
-  expectError("landmarks: {max_confirmed: 10000000000}", "landmarks.max_confirmed", "out of range");
+  expectError("landmarks: {tracker: {max_confirmed: 10000000000}}",
+              "landmarks.tracker.max_confirmed",
+              "out of range");
   expectError("seed: 100000000000000000000", "seed", "out of range");
 }
 
@@ -326,7 +380,8 @@ TEST(PipelineConfig, RejectsUnknownKeysWithASuggestion) {
               "unknown key frontend.harris.borderpx",
               "did you mean border_px?");
   expectError("landmark: {gate_chi2: 3}", "unknown key landmark", "did you mean landmarks?");
-  expectError("landmarks: {gate_chi: 3}", "unknown key landmarks.gate_chi", "gate_chi2");
+  expectError(
+      "landmarks: {tracker: {gate_chi: 3}}", "unknown key landmarks.tracker.gate_chi", "gate_chi2");
   expectError(
       "mapping: {zzz: 1}", "unknown key mapping.zzz", "allowed keys in mapping: resolution_m");
   expectError("frontend: {polcy: wta-lrc}", "unknown key frontend.polcy");
@@ -363,7 +418,8 @@ TEST(PipelineConfig, ReportsYamlSyntaxErrors) {
 }
 
 TEST(PipelineConfig, ValidatesAfterParsing) {
-  expectError("landmarks: {gate_chi2: -1}", "landmarks.gate_chi2", "> 0");
+  expectError(
+      "landmarks: {tracker: {gate_chi2: -1}}", "landmarks.tracker.gate_chi2", "in (0, 1000]");
   expectError("frontend: {harris: {k: 0.3}}", "frontend.harris", "k = 0.3");
   expectError("frontend: {sad: {window_width_px: 12}}", "frontend.sad", "window_width_px = 12");
   expectError("mapping: {prob_hit: 1.5}", "mapping.prob_hit");
@@ -398,15 +454,16 @@ TEST_F(PipelineConfigFile, ErrorsNameTheFile) {
   ASSERT_FALSE(s.isOk());
   EXPECT_NE(s.message().find("directory"), std::string::npos) << s.message();
 
-  writeFile(path, "landmarks:\n  gate_chi2: abc\n");
+  writeFile(path, "landmarks:\n  tracker:\n    gate_chi2: abc\n");
   s = loadConfigFile(path, &config);
   ASSERT_FALSE(s.isOk());
-  EXPECT_EQ(s.message(), path + ": landmarks.gate_chi2: expected a number, got \"abc\" (line 2)");
+  EXPECT_EQ(s.message(),
+            path + ": landmarks.tracker.gate_chi2: expected a number, got \"abc\" (line 3)");
 
-  writeFile(path, "landmarks: {gate_chi2: -1}\n");
+  writeFile(path, "landmarks: {tracker: {gate_chi2: -1}}\n");
   s = loadConfigFile(path, &config);
   ASSERT_FALSE(s.isOk());
-  EXPECT_EQ(s.message().rfind(path + ": landmarks.gate_chi2", 0), 0u) << s.message();
+  EXPECT_EQ(s.message().rfind(path + ": landmarks.tracker.gate_chi2", 0), 0u) << s.message();
 
   writeFile(path, "seed: [1,\n");
   s = loadConfigFile(path, &config);
@@ -434,84 +491,6 @@ TEST(PipelineConfigDefaultFile, MatchesTheDefaults) {
   EXPECT_EQ(readFile(path), expected)
       << path
       << " is stale; regenerate: TWOCAM_REGENERATE_CONFIGS=1 ctest -R PipelineConfigDefaultFile";
-}
-
-TEST(Pipeline, RowSupportIsOnForRunsAndSkippedForFrontendOnlyRuns) {
-  PipelineConfig config;
-  ASSERT_TRUE(config.frontend.sad.row_support) << "twocam run's defaults measure row support";
-  const StereoRig rig;
-  ASSERT_TRUE(clampToRig(rig, &config).isOk());
-  Pipeline pipe(rig, config);
-  EXPECT_TRUE(pipe.frontend().options().sad.row_support);
-  pipe.skipRowSupport();
-  EXPECT_FALSE(pipe.frontend().options().sad.row_support);
-  // Everything else of the frontend is kept.
-  EXPECT_EQ(pipe.frontend().options().harris.target_count, config.frontend.harris.target_count);
-  EXPECT_EQ(pipe.frontend().options().sad.window_width_px, config.frontend.sad.window_width_px);
-}
-
-/// A fronto-parallel textured plane at disparity `d` [px] filling the rig's view: 4x4-pixel
-/// blocks of seeded random grey (corners on every block edge), the right view shifted by d.
-StereoFrame planeFrame(const StereoRig& rig, int d, int64_t t_ns) {
-  std::mt19937 rng(11);
-  std::uniform_int_distribution<int> grey(20, 235);
-  const int block = 4;
-  const int cols = (rig.width_px + d) / block + 2;
-  std::vector<uint8_t> blocks(static_cast<size_t>(cols) * (rig.height_px / block + 2));
-  for (uint8_t& b : blocks) b = static_cast<uint8_t>(grey(rng));
-  const auto texture = [&](int x, int y) {
-    return blocks[static_cast<size_t>(y / block) * cols + x / block];
-  };
-  StereoFrame frame;
-  frame.t_ns = t_ns;
-  frame.left = ImageU8(rig.width_px, rig.height_px);
-  frame.right = ImageU8(rig.width_px, rig.height_px);
-  for (int v = 0; v < rig.height_px; ++v) {
-    for (int u = 0; u < rig.width_px; ++u) {
-      frame.left(u, v) = texture(u, v);
-      frame.right(u, v) = texture(u + d, v);  // right(u - d, v) = left(u, v)
-    }
-  }
-  return frame;
-}
-
-// twocam run re-measures candidates whose corner it did not find (probe_unseen): the same
-// images after a sideways move of 10 cm put every prediction about 14 px from its corner (more
-// than the gate), and the plane is still at the predicted disparity there. Replayed
-// hypotheses have no images, so nothing is re-measured.
-TEST(Pipeline, ProcessReMeasuresUnassociatedCandidatesOnTheFrame) {
-  constexpr int kDisparityPx = 17;
-  for (const bool probe_unseen : {true, false}) {
-    PipelineConfig config;
-    config.landmarks.probe_unseen = probe_unseen;
-    const StereoRig rig;
-    ASSERT_TRUE(clampToRig(rig, &config).isOk());
-    Pipeline pipe(rig, config);
-    const StereoFrame frame = planeFrame(rig, kDisparityPx, 0);
-    FrameOutput out;
-    ASSERT_TRUE(pipe.process(0, frame, Pose2{}, &out).isOk());
-    ASSERT_GT(pipe.database().numCandidates(), 100);
-    Pose2 moved;
-    moved.x_m = 0.1;  // the default rig's T_b_cl is the identity: body x is the image's u
-    StereoFrame again = frame;
-    again.t_ns = 100'000'000;
-    ASSERT_TRUE(pipe.process(1, again, moved, &out).isOk());
-    const landmarks::FrameReport& report = pipe.report();
-    std::printf("probe_unseen %d: %d candidates re-measured, %d found\n",
-                probe_unseen ? 1 : 0,
-                report.probed,
-                report.probe_found);
-    if (probe_unseen) {
-      EXPECT_GT(report.probed, 100);
-      EXPECT_GT(report.probe_found, report.probed / 2) << "the plane is at the predicted disparity";
-      EXPECT_LE(report.probe_found, report.probed);
-    } else {
-      EXPECT_EQ(report.probed, 0);
-    }
-    moved.x_m = 0.2;
-    ASSERT_TRUE(pipe.processHypotheses(2, 200'000'000, moved, pipe.hypotheses(), &out).isOk());
-    EXPECT_EQ(pipe.report().probed, 0);
-  }
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/odometry_noise.h"
+
 namespace twocam::test {
 
 StereoRig SyntheticStream::defaultRig() {
@@ -59,9 +61,9 @@ void SyntheticStream::next(SyntheticFrame* out) {
                   options_.circle_radius_m * std::sin(angle_rad_),
                   angle_rad_ + M_PI / 2.0};
     const double ds_odo = (1.0 + options_.odom_scale_error) * ds +
-                          options_.odom_sigma_per_m * std::sqrt(ds) * normal(rng_);
+                          randomIncrementSigma(options_.odom_sigma_per_m, ds) * normal(rng_);
     const double dyaw_odo = dyaw / (1.0 + options_.odom_wheel_base_error) +
-                            options_.odom_sigma_per_rad * std::sqrt(dyaw) * normal(rng_);
+                            randomIncrementSigma(options_.odom_sigma_per_rad, dyaw) * normal(rng_);
     const double mid = odom_pose_.yaw_rad + 0.5 * dyaw_odo;
     odom_pose_.x_m += ds_odo * std::cos(mid);
     odom_pose_.y_m += ds_odo * std::sin(mid);
