@@ -94,13 +94,14 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
                                    const landmarks::LandmarkDatabase& db,
                                    const ImageF32& gt_depth,
                                    const Eigen::Isometry3d& T_w_b_true) {
-  return addFrame(hyps, left, report, db.landmarks(), gt_depth, T_w_b_true);
+  return addFrame(
+      hyps, left, report, [&db](uint64_t id) { return db.find(id); }, gt_depth, T_w_b_true);
 }
 
 Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
                                    const ImageU8& left,
                                    const landmarks::FrameReport& report,
-                                   const std::vector<landmarks::Landmark>& slots,
+                                   const std::function<const landmarks::Landmark*(uint64_t)>& find,
                                    const ImageF32& gt_depth,
                                    const Eigen::Isometry3d& T_w_b_true) {
   if (Status s = checkGroundTruthPose(T_w_b_true); !s) {
@@ -127,8 +128,13 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
     }
   }
   for (uint64_t id : report.removed_ids) anchors_.erase(id);
-  for (uint32_t slot : report.created_slots) {
-    const landmarks::Landmark& l = slots[slot];
+  for (uint64_t id : report.created_ids) {
+    const landmarks::Landmark* created = find(id);
+    if (created == nullptr) {
+      return Status::error("frame " + std::to_string(report.frame) + ": created landmark " +
+                           std::to_string(id) + " is unknown");
+    }
+    const landmarks::Landmark& l = *created;
     AnchorTruth t;
     const int u0 = static_cast<int>(l.anchor.u_px), v0 = static_cast<int>(l.anchor.v_px);
     t.valid = gt_at(u0, v0, &t.d_gt, &t.z_gt);

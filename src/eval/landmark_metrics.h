@@ -5,6 +5,7 @@
 /// only the anchor truth of live landmarks, so memory follows the database's.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -128,12 +129,12 @@ class LandmarkEvaluator {
                                 const landmarks::LandmarkDatabase& db,
                                 const ImageF32& gt_depth,
                                 const Eigen::Isometry3d& T_w_b_true);
-  /// The same from the database's slots (db.landmarks()): what the evaluator reads, so tests
-  /// can hand-build it. report.created_slots index `slots`.
+  /// The same with the landmarks looked up by id (LandmarkDatabase::find): what the evaluator
+  /// reads, so tests can hand-build it. Reads report.created_ids and report.removed_ids.
   [[nodiscard]] Status addFrame(const StereoHypotheses& hyps,
                                 const ImageU8& left,
                                 const landmarks::FrameReport& report,
-                                const std::vector<landmarks::Landmark>& slots,
+                                const std::function<const landmarks::Landmark*(uint64_t id)>& find,
                                 const ImageF32& gt_depth,
                                 const Eigen::Isometry3d& T_w_b_true);
 

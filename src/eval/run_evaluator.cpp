@@ -138,11 +138,12 @@ Status RunEvaluator::addToEvaluationMap(const pipeline::RunFrame& f,
   }
   T_true_odom_by_frame_[index] = T_true_odom;
   const pipeline::FrameOutput& fo = f.output;
-  const auto& slots = f.pipeline.database().landmarks();  // slot read: mapped landmarks' anchors
+  const landmarks::LandmarkDatabase& db = f.pipeline.database();
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(fo.mapped_points_w.size());
   for (size_t i = 0; i < fo.mapped_points_w.size(); ++i) {
-    const int32_t anchor = slots[fo.mapped_slots[i]].anchor.frame;
+    const landmarks::Landmark* l = db.find(fo.mapped_ids[i]);
+    const int32_t anchor = l != nullptr ? l->anchor.frame : -1;
     const bool known = anchor >= 0 && static_cast<size_t>(anchor) < T_true_odom_by_frame_.size();
     pts.push_back((known ? T_true_odom_by_frame_[static_cast<size_t>(anchor)] : T_true_odom) *
                   fo.mapped_points_w[i]);
@@ -170,16 +171,16 @@ void RunEvaluator::takeSample(const pipeline::RunFrame& f, const GroundTruthFram
       << "frame,corner,u,v,rank,d,cost,lr_consistent,landmark_state,truth\n";
   const pipeline::Pipeline& pipe = f.pipeline;
   const StereoHypotheses& hyps = pipe.hypotheses();
-  const auto& slots = pipe.database().landmarks();  // slot read: each hypothesis' landmark
-  const auto& hypothesis_landmark = pipe.report().hypothesis_landmark;
+  const landmarks::LandmarkDatabase& db = pipe.database();
+  const std::vector<uint64_t>& hypothesis_landmark = pipe.report().hypothesis_landmark_id;
   for (size_t j = 0; j < hyps.hypotheses.size(); ++j) {
     const DisparityHypothesis& h = hyps.hypotheses[j];
     const Corner& c = hyps.points[h.point_index].corner;
     int state = -1;
     if (f.odometry_mode && j < hypothesis_landmark.size()) {
-      const int32_t slot = hypothesis_landmark[j];
-      if (slot >= 0) {
-        const auto s = slots[static_cast<size_t>(slot)].state;
+      // A landmark removed later in the same update is no longer found: state -1.
+      if (const landmarks::Landmark* l = db.find(hypothesis_landmark[j]); l != nullptr) {
+        const auto s = l->state;
         state = s == landmarks::LandmarkState::kConfirmed   ? 1
                 : s == landmarks::LandmarkState::kCandidate ? 0
                                                             : -1;
@@ -207,7 +208,7 @@ std::string RunEvaluator::landmarksCsv(const landmarks::LandmarkDatabase& db, bo
     if (std::isfinite(v)) csv << v;
   };
   const double nan = std::nan("");
-  for (const landmarks::Landmark& l : db.landmarks()) {  // slot read: every live landmark
+  for (const landmarks::Landmark& l : db.landmarks()) {  // every record, in storage order
     if (l.state == landmarks::LandmarkState::kFree) continue;
     csv << l.id << ',' << l.p_w.x() << ',' << l.p_w.y() << ',' << l.p_w.z() << ','
         << (l.state == landmarks::LandmarkState::kConfirmed ? 1 : 0) << ',' << l.confidence << ','

@@ -89,11 +89,9 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   report->probed = report->probe_found = 0;
   report->created_ids.clear();
   report->associated_ids.clear();
-  report->created_slots.clear();
   report->created_hypotheses.clear();
   report->removed_ids.clear();
   report->hypothesis_landmark_id.assign(hyps.hypotheses.size(), 0);
-  report->hypothesis_landmark.assign(hyps.hypotheses.size(), -1);
 
   if (has_previous_) {
     path_m_ += std::hypot(odom_pose.x_m - pose_.x_m, odom_pose.y_m - pose_.y_m);
@@ -342,7 +340,6 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
     const DisparityHypothesis& h = hyps.hypotheses[pred_hyp[i]];
     associated_[slot] = 1;
     if (!applyObservation(slot, h, hyps.points[h.point_index].corner)) continue;  // contradicted
-    report->hypothesis_landmark[pred_hyp[i]] = static_cast<int32_t>(slot);
     report->hypothesis_landmark_id[pred_hyp[i]] = slots_[slot].id;
     report->associated_ids.push_back(slots_[slot].id);
     ++report->associated;
@@ -584,10 +581,8 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       info.weight_sum = weight_sum;
       info.z_cl_m = p_cl->z();
       policy_->onSeed(slot, &l, info, frame_ctx_);
-      report->hypothesis_landmark[chosen[i]] = static_cast<int32_t>(slot);
       report->hypothesis_landmark_id[chosen[i]] = l.id;
       report->created_ids.push_back(l.id);
-      report->created_slots.push_back(slot);
       report->created_hypotheses.push_back(chosen[i]);
       ++report->seeded;
       if (policy_->confirmsAtSeed()) confirm(slot, report);

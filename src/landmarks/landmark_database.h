@@ -53,14 +53,8 @@ struct FrameReport {
   /// (removed_ids): find() then returns nullptr.
   std::vector<uint64_t> hypothesis_landmark_id;
 
-  /// Deprecated: slot-based, use created_ids. Slots of the landmarks created this frame.
-  std::vector<uint32_t> created_slots;
-  /// Index of the hypothesis each created landmark was seeded from, parallel to created_ids
-  /// (and created_slots).
+  /// Index of the hypothesis each created landmark was seeded from, parallel to created_ids.
   std::vector<uint32_t> created_hypotheses;
-  /// Deprecated: slot-based, use hypothesis_landmark_id. Per input hypothesis: slot of the
-  /// landmark it was associated with or seeded into, or -1.
-  std::vector<int32_t> hypothesis_landmark;
 };
 
 /// The tracker: candidates and confirmed landmarks with their confidence. State only; the maths
@@ -109,8 +103,8 @@ class LandmarkDatabase final : public AnchorPoses {
   /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
   [[nodiscard]] const Landmark* find(uint64_t id) const;
 
-  /// Deprecated: slot-based, use find() and the ids of FrameReport. All slots; skip those in
-  /// state kFree.
+  /// Every landmark record in storage order (for writing them all out); skip those in state
+  /// kFree. Per-frame results name landmarks by id (FrameReport): look them up with find().
   [[nodiscard]] const std::vector<Landmark>& landmarks() const { return slots_; }
   [[nodiscard]] int numCandidates() const { return num_candidates_; }
   [[nodiscard]] int numConfirmed() const { return num_confirmed_; }

@@ -34,7 +34,6 @@ void Pipeline::skipRowSupport() {
 Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out) {
   out->mapped_points_w.clear();
   out->mapped_ids.clear();
-  out->mapped_slots.clear();
   out->outside_map = false;
   out->times = StageTimes{};
   out->failure = FrameOutput::Failure::kNone;
@@ -60,7 +59,6 @@ Status Pipeline::processHypotheses(int32_t frame,
                                    FrameOutput* out) {
   out->mapped_points_w.clear();
   out->mapped_ids.clear();
-  out->mapped_slots.clear();
   out->outside_map = false;
   out->times = StageTimes{};
   out->failure = FrameOutput::Failure::kNone;
@@ -113,9 +111,10 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     slot_mapped_[slot] = 1;
     out->mapped_points_w.push_back(l->p_w);
     out->mapped_ids.push_back(l->id);
-    out->mapped_slots.push_back(static_cast<uint32_t>(slot));
+    mapped_slot_list_.push_back(static_cast<uint32_t>(slot));
   }
-  for (uint32_t slot : out->mapped_slots) slot_mapped_[slot] = 0;
+  for (uint32_t slot : mapped_slot_list_) slot_mapped_[slot] = 0;
+  mapped_slot_list_.clear();
   out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
   octomap::OcTreeKey origin_key;
   const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()),

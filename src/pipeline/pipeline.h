@@ -37,8 +37,6 @@ struct FrameOutput {
   std::vector<Eigen::Vector3d> mapped_points_w;
   /// Landmark id of each mapped point, parallel to mapped_points_w (database().find(id)).
   std::vector<uint64_t> mapped_ids;
-  /// Deprecated: slot-based, use mapped_ids. Database slot of each mapped point.
-  std::vector<uint32_t> mapped_slots;
   Eigen::Vector3d camera_origin_w = Eigen::Vector3d::Zero();
   /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
   /// was not mapped (landmarks were still updated).
@@ -100,6 +98,7 @@ class Pipeline {
   landmarks::FrameReport report_;
   StereoHypotheses probe_hyps_;  // the re-measurement's output, reused between frames
   std::vector<uint8_t> slot_mapped_;
+  std::vector<uint32_t> mapped_slot_list_;  // slots flagged in slot_mapped_ this frame
 };
 
 /// Fits a config to a rig: the SAD disparity range is clamped so that the window stays inside

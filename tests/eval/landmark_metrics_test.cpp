@@ -117,8 +117,17 @@ class HandBuiltRun : public ::testing::Test {
   Status frame(int32_t index, const std::vector<uint32_t>& created) {
     landmarks::FrameReport report;
     report.frame = index;
-    report.created_slots = created;
-    return evaluator_.addFrame(StereoHypotheses{}, left_, report, slots_, depth_, T_w_b_);
+    for (uint32_t k : created) report.created_ids.push_back(slots_[k].id);
+    return evaluator_.addFrame(StereoHypotheses{}, left_, report, finder(), depth_, T_w_b_);
+  }
+
+  /// Looks a hand-built landmark up by id, as LandmarkDatabase::find does.
+  std::function<const landmarks::Landmark*(uint64_t)> finder() const {
+    return [this](uint64_t id) -> const landmarks::Landmark* {
+      for (const landmarks::Landmark& l : slots_)
+        if (l.id == id) return &l;
+      return nullptr;
+    };
   }
 
   StereoRig rig_;
@@ -200,7 +209,7 @@ TEST_F(HandBuiltRun, RemovedLandmarksAreForgotten) {
   report.frame = 1;
   report.removed_ids = {slots_[a].id};
   ASSERT_TRUE(
-      evaluator_.addFrame(StereoHypotheses{}, left_, report, slots_, depth_, T_w_b_).isOk());
+      evaluator_.addFrame(StereoHypotheses{}, left_, report, finder(), depth_, T_w_b_).isOk());
   EXPECT_EQ(evaluator_.verdict(slots_[a]), -1);
 }
 

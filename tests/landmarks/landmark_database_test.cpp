@@ -46,10 +46,9 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
     const Status s = db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report);
     EXPECT_TRUE(s.isOk()) << s.message();
     for (uint64_t id : report.removed_ids) anchor_truth.erase(id);
-    for (size_t i = 0; i < report.created_slots.size(); ++i) {
+    for (size_t i = 0; i < report.created_ids.size(); ++i) {
       const uint32_t j = report.created_hypotheses[i];
-      anchor_truth[db.landmarks()[report.created_slots[i]].id] = {frame.hypothesis_kind[j],
-                                                                  frame.hypothesis_point[j]};
+      anchor_truth[report.created_ids[i]] = {frame.hypothesis_kind[j], frame.hypothesis_point[j]};
     }
   }
   RunOutcome out;
@@ -320,9 +319,8 @@ TEST(LandmarkDatabase, CandidatesWithoutRowSupportAreNotConfirmed) {
       ASSERT_TRUE(
           db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report).isOk());
       for (uint64_t id : report.removed_ids) anchor_point.erase(id);
-      for (size_t i = 0; i < report.created_slots.size(); ++i) {
-        anchor_point[db.landmarks()[report.created_slots[i]].id] =
-            frame.hypothesis_point[report.created_hypotheses[i]];
+      for (size_t i = 0; i < report.created_ids.size(); ++i) {
+        anchor_point[report.created_ids[i]] = frame.hypothesis_point[report.created_hypotheses[i]];
       }
     }
     *confirmed_even = *confirmed_odd = 0;
@@ -659,18 +657,18 @@ TEST(LandmarkDatabase, ReportsIdsThatFindLooksUp) {
   const LandmarkDatabase& db = first.db;
   const FrameReport& report = first.report;
   ASSERT_FALSE(report.created_ids.empty());
-  ASSERT_EQ(report.created_ids.size(), report.created_slots.size());
   ASSERT_EQ(report.created_ids.size(), report.created_hypotheses.size());
   for (size_t i = 0; i < report.created_ids.size(); ++i) {
     const Landmark* l = db.find(report.created_ids[i]);
     ASSERT_NE(l, nullptr);
-    EXPECT_EQ(l, &db.landmarks()[report.created_slots[i]]);
+    EXPECT_EQ(l->id, report.created_ids[i]);
     EXPECT_EQ(report.hypothesis_landmark_id[report.created_hypotheses[i]], l->id);
   }
-  for (size_t j = 0; j < report.hypothesis_landmark.size(); ++j) {
-    const int32_t slot = report.hypothesis_landmark[j];
-    EXPECT_EQ(report.hypothesis_landmark_id[j],
-              slot < 0 ? 0 : db.landmarks()[static_cast<size_t>(slot)].id);
+  ASSERT_EQ(report.hypothesis_landmark_id.size(), first.frame.hypotheses.hypotheses.size());
+  for (uint64_t id : report.hypothesis_landmark_id) {
+    if (id != 0) {
+      EXPECT_NE(db.find(id), nullptr);
+    }
   }
   EXPECT_EQ(db.find(0), nullptr);
   for (uint64_t id : report.removed_ids) EXPECT_EQ(db.find(id), nullptr);
