@@ -83,3 +83,40 @@ TEST(YamlText, AcceptsUtf8TabsCrlfAndAByteOrderMark) {
 
 }  // namespace
 }  // namespace twocam::yaml
+
+namespace twocam::yaml {
+namespace {
+
+TEST(YamlText, DuplicateKeysAreErrorsWithTheirLine) {
+  EXPECT_EQ(findDuplicateKey("name: a\nseed: 1\nname: b\n"),
+            std::optional<std::string>("line 3: duplicate key 'name' (first at line 1)"));
+  // Nested and in sequence items.
+  EXPECT_EQ(findDuplicateKey("rig:\n  width_px: 1\n  # c\n  width_px: 2\n"),
+            std::optional<std::string>("line 4: duplicate key 'width_px' (first at line 2)"));
+  EXPECT_EQ(findDuplicateKey("shapes:\n  - type: box\n    name: a\n    name: b\n"),
+            std::optional<std::string>("line 4: duplicate key 'name' (first at line 3)"));
+  // Flow maps, also inside sequences and over lines.
+  EXPECT_EQ(findDuplicateKey("shapes:\n  - {type: box, size_m: [1, 2], type: wall}\n"),
+            std::optional<std::string>("line 2: duplicate key 'type'"));
+  EXPECT_EQ(findDuplicateKey("a: {b: 1,\n  c: {d: 1, d: 2}}\n"),
+            std::optional<std::string>("line 2: duplicate key 'd'"));
+}
+
+TEST(YamlText, SameKeyInDifferentMapsIsFine) {
+  EXPECT_FALSE(findDuplicateKey("a:\n  x: 1\nb:\n  x: 2\n"));
+  EXPECT_FALSE(findDuplicateKey("s:\n  - name: a\n    t: 1\n  - name: b\n    t: 2\n"));
+  EXPECT_FALSE(findDuplicateKey("s:\n  - {name: a}\n  - {name: a}\n"));
+  EXPECT_FALSE(findDuplicateKey("a: |\n  x: 1\n  x: 1\nb: 'x: 1 # y'\n"));
+  EXPECT_FALSE(findDuplicateKey("a: 1 # a: 2\n# a: 3\n"));
+  EXPECT_FALSE(findDuplicateKey("a:\n  - 1\n  - 2\nb: [x, {c: 1}, {c: 2}]\n"));
+}
+
+TEST(YamlText, ParseYamlRejectsDuplicates) {
+  mrpt::containers::yaml doc;
+  const auto error = parseYaml("mapping:\n  resolution_m: 0.1\n  resolution_m: 0.2\n", &doc);
+  ASSERT_TRUE(error.has_value());
+  EXPECT_EQ(*error, "line 3: duplicate key 'resolution_m' (first at line 2)");
+}
+
+}  // namespace
+}  // namespace twocam::yaml
