@@ -157,9 +157,16 @@ struct FlowScan {
     while (!out.empty() && std::isspace(static_cast<unsigned char>(out.back()))) out.pop_back();
     return out;
   }
+  /// Nesting of the collection being scanned; deeper ones are left alone (MRPT parsed them).
+  int depth = 0;
+  static constexpr int kMaxDepth = 64;
   void value() {
     skipSpace();
     if (i >= text.size()) return;
+    if ((text[i] == '{' || text[i] == '[') && depth >= kMaxDepth) {
+      i = text.size();
+      return;
+    }
     if (text[i] == '{') {
       map();
     } else if (text[i] == '[') {
@@ -170,6 +177,11 @@ struct FlowScan {
   }
   void map() {
     ++i;  // '{'
+    ++depth;
+    struct Leave {
+      int& d;
+      ~Leave() { --d; }
+    } leave{depth};
     std::vector<std::string> keys;
     while (!error) {
       skipSpace();
@@ -178,7 +190,7 @@ struct FlowScan {
         ++i;
         return;
       }
-      if (text[i] == ',') {
+      if (text[i] == ',' || text[i] == ']') {  // a stray ']' is the parser's to report
         ++i;
         continue;
       }
@@ -193,10 +205,16 @@ struct FlowScan {
         ++i;
         value();
       }
+      if (i == at) ++i;  // always make progress
     }
   }
   void sequence() {
     ++i;  // '['
+    ++depth;
+    struct Leave {
+      int& d;
+      ~Leave() { --d; }
+    } leave{depth};
     while (!error) {
       skipSpace();
       if (i >= text.size()) return;
@@ -204,11 +222,13 @@ struct FlowScan {
         ++i;
         return;
       }
-      if (text[i] == ',') {
+      if (text[i] == ',' || text[i] == '}') {  // a stray '}' is the parser's to report
         ++i;
         continue;
       }
+      const size_t before = i;
       value();
+      if (i == before) ++i;  // always make progress
     }
   }
 };
