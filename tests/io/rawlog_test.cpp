@@ -350,7 +350,34 @@ TEST(Rawlog, HugeDeclaredStringIsAnErrorNotAnAllocation) {
   EXPECT_NE(st.message().find("above 256 MiB"), std::string::npos) << st.message();
 }
 
-TEST(Rawlog, NonFiniteOrHugePosesAreErrorsNamingTheFrame) {
+TEST(Rawlog, NonFiniteOdometryIsDeliveredForThePipelineToSkip) {
+  const std::string dir = test::makeTempDir("rawlog_nan_odometry");
+  const std::string path = dir + "/odo.rawlog";
+  const StereoRig rig = testRig();
+  std::mt19937 rng(42);
+  std::unique_ptr<RawlogWriter> w;
+  ASSERT_TRUE(RawlogWriter::open(path, rig, {}, &w).isOk());
+  for (int k = 0; k < 3; ++k) {
+    Frame f = makeFrame(rig, k, rng);
+    if (k == 1) f.odom.pose.x_m = std::numeric_limits<double>::quiet_NaN();
+    ASSERT_TRUE(w->write(f.stereo, &f.odom, &f.gt).isOk());
+  }
+  ASSERT_TRUE(w->finish().isOk());
+  std::unique_ptr<RawlogReader> r;
+  ASSERT_TRUE(RawlogReader::open(path, &r).isOk());
+  LogFrame frame;
+  Status st;
+  int n = 0;
+  while (r->next(&frame, &st)) {
+    ASSERT_TRUE(frame.odometry.has_value());
+    EXPECT_EQ(std::isnan(frame.odometry->pose.x_m), n == 1);
+    ++n;
+  }
+  EXPECT_EQ(n, 3);
+  EXPECT_TRUE(st.isOk()) << st.message();
+}
+
+TEST(Rawlog, NonFiniteOrHugeGroundTruthIsAnErrorNamingTheFrame) {
   const std::string dir = test::makeTempDir("rawlog_nan");
   struct Case {
     const char* name;
@@ -358,12 +385,6 @@ TEST(Rawlog, NonFiniteOrHugePosesAreErrorsNamingTheFrame) {
     const char* expected;
   };
   const std::vector<Case> cases = {
-      {"nan_odometry",
-       [](Frame* f) { f->odom.pose.x_m = std::numeric_limits<double>::quiet_NaN(); },
-       "odometry pose"},
-      {"inf_yaw",
-       [](Frame* f) { f->odom.pose.yaw_rad = std::numeric_limits<double>::infinity(); },
-       "odometry pose"},
       {"nan_gt", [](Frame* f) { f->gt.T_w_b.matrix()(0, 0) = std::nan(""); }, "ground-truth pose"},
       {"huge_gt", [](Frame* f) { f->gt.T_w_b.translation().x() = 1e300; }, "ground-truth pose"},
   };
@@ -389,6 +410,31 @@ TEST(Rawlog, NonFiniteOrHugePosesAreErrorsNamingTheFrame) {
     EXPECT_NE(st.message().find("frame 1: " + std::string(c.expected)), std::string::npos)
         << c.name << ": " << st.message();
   }
+}
+
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+TEST(Rawlog, EveryFuzzCorpusLogReadsToAnEnd) {
+  // Inputs fuzzing found (regress_*) among the seeds: each must end in a clean end or an error
+  // (under ASan + UBSan: without a report; regress_bool_byte stored 129 in a bool).
+  const fs::path dir = fs::path(test::sourceDir()) / "tests/fuzz/corpus/rawlog";
+  int logs = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    std::unique_ptr<RawlogReader> r;
+    if (RawlogReader::open(entry.path().string(), &r).isOk()) {
+      LogFrame frame;
+      Status st;
+      constexpr int kMaxFrames = 1000;
+      for (int k = 0; k < kMaxFrames && r->next(&frame, &st); ++k) {
+      }
+    }
+    ++logs;
+  }
+  EXPECT_GE(logs, 2);
 }
 
 }  // namespace
