@@ -2,7 +2,9 @@
 # Builds the libFuzzer harnesses (tests/fuzz) with clang, ASan and UBSan in build/fuzz and runs
 # each for SECONDS seconds (default 20) from the seed corpus with a fixed seed. Exits non-zero on
 # a crash, hang (an input over 10 s), leak or sanitizer report; libFuzzer writes the input that
-# triggered it to build/fuzz/artifacts/.
+# triggered it to build/fuzz/artifacts/. allocator_may_return_null=1: a huge request returns
+# null as glibc's malloc does in production (OpenCV then throws, which the reader reports),
+# instead of ASan aborting.
 #   scripts/fuzz_smoke.sh [SECONDS] [HARNESS...]     e.g. scripts/fuzz_smoke.sh 600 fuzz_world
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,7 +26,7 @@ for h in "${harnesses[@]}"; do
   mkdir -p "$corpus"
   echo "== $h: ${seconds} s"
   # The seed corpus is read-only input; new inputs go to the build tree's corpus.
-  if ! ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=tests/fuzz/lsan.supp \
+  if ! ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 LSAN_OPTIONS=suppressions=tests/fuzz/lsan.supp \
       UBSAN_OPTIONS=print_stacktrace=1 \
       "build/fuzz/tests/fuzz/$h" "$corpus" "tests/fuzz/corpus/${h#fuzz_}" \
       -seed=1 -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -max_len=65536 \

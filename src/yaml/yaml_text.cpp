@@ -364,10 +364,23 @@ std::optional<std::string> findDuplicateKey(const std::string& text) {
   return std::nullopt;
 }
 
+/// Deepest flow nesting passed to the parser: MRPT builds and frees its tree recursively, and
+/// fuzzing found thousands of nested brackets taking over 10 s (TwoCam's files nest 3 deep).
+constexpr int kMaxFlowDepth = 64;
+
 std::optional<std::string> checkYamlText(const std::string& text) {
   bool line_start = true;
+  int depth = 0;  // flow brackets open (quotes not honoured: a bound, not a parse)
   for (size_t i = 0; i < text.size();) {
     const auto c = static_cast<unsigned char>(text[i]);
+    if (c == '[' || c == '{') {
+      if (++depth > kMaxFlowDepth) {
+        return position(text, i) + "collections nested deeper than " +
+               std::to_string(kMaxFlowDepth) + " levels";
+      }
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
     if (line_start && c == '%') {
       return position(text, i) + "YAML directives ('%...') are not supported; remove the line";
     }

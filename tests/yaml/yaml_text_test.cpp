@@ -70,6 +70,14 @@ TEST(YamlText, RejectsInvalidUtf8WithItsPosition) {
   }
 }
 
+TEST(YamlText, RejectsDeepNesting) {
+  const std::string deep = "a: " + std::string(5000, '[') + std::string(5000, ']') + "\n";
+  const auto error = checkYamlText(deep);
+  ASSERT_TRUE(error.has_value());
+  EXPECT_EQ(*error, "line 1, column 68: collections nested deeper than 64 levels");
+  EXPECT_FALSE(checkYamlText("a: " + std::string(64, '[') + std::string(64, ']') + "\n"));
+}
+
 TEST(YamlText, RejectsControlCharacters) {
   const auto nul = checkYamlText(std::string("a: 1\0", 5));
   ASSERT_TRUE(nul.has_value());
