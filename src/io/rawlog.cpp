@@ -36,6 +36,8 @@
 #include <string>
 #include <utility>
 
+#include "common/options_check.h"
+
 namespace twocam::io {
 namespace {
 /// Largest single allocation while MRPT deserialises one object of a log, 0 = no limit. MRPT
@@ -202,12 +204,10 @@ std::string frameName(const char* prefix, int index) {
 }  // namespace
 
 Status RawlogWriterOptions::validate() const {
-  if (gzip_level < 0 || gzip_level > 9) return Status::error("gzip_level must be in [0, 9]");
-  if (!(depth_unit_m >= 0.0) || !std::isfinite(depth_unit_m))
-    return Status::error("depth_unit_m must be >= 0");
-  if (!(max_depth_m > 0.0) || !std::isfinite(max_depth_m))
-    return Status::error("max_depth_m must be > 0");
-  return Status::ok();
+  if (Status s = checkRange("gzip_level", gzip_level, 0, 9); !s) return s;
+  if (Status s = checkRange("depth_unit_m", depth_unit_m, 0.0, 1.0, "m"); !s) return s;
+  if (Status s = checkPositive("max_depth_m", max_depth_m, "m"); !s) return s;
+  return checkRange("max_depth_m", max_depth_m, 0.0, kMaxLogCoordinateM, "m");
 }
 
 double depthUnit(const RawlogWriterOptions& options) {
@@ -704,6 +704,16 @@ std::string shortWhat(const std::exception& e) {
   return message.size() > kMaxChars ? message.substr(0, kMaxChars) + "..." : message;
 }
 
+/// A bool as MRPT deserialised it: MRPT reads the byte straight into the bool, so a corrupt log
+/// can leave a value other than 0 or 1, which C++ may not load as a bool (UBSan: "load of value
+/// 129"). nullopt for such a byte.
+std::optional<bool> storedBool(const bool& b) {
+  unsigned char byte = 0;
+  std::memcpy(&byte, &b, 1);
+  if (byte > 1) return std::nullopt;
+  return byte == 1;
+}
+
 /// MRPT's convention for rectified stereo images (CObservationStereoImages::areImagesRectified):
 /// all distortion parameters zero. TwoCam's frontend needs rectified rows.
 Status checkRectified(const mrpt::obs::CObservationStereoImages& obs) {
@@ -734,10 +744,9 @@ bool sameCalibration(const StereoRig& a, const StereoRig& b) {
 }  // namespace
 
 namespace {
-/// Ground truth must be finite numbers within kMaxLogCoordinateM: the maths downstream (voxel
-/// keys, distinct-point counts) converts coordinates to integers. Odometry is not checked here:
-/// a frame with a bad odometry pose is a documented skip of `twocam run` (pipeline::Run), not
-/// the end of the log.
+/// Ground truth must be finite and within kMaxLogCoordinateM: the evaluation converts
+/// coordinates to integers (voxel keys, distinct-point counts). Odometry is delivered as read:
+/// `twocam run` skips a frame with non-finite odometry with a warning (docs/recorded_data.md).
 Status checkFinite(const LogFrame& frame) {
   const auto bad = [](double v) { return !std::isfinite(v) || std::abs(v) > kMaxLogCoordinateM; };
   std::ostringstream os;
@@ -849,7 +858,10 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
     if (Status st = checkRectified(*stereo); !st) return fail(st.message());
     if (!sameCalibration(rigFromObservation(*stereo), rig_))
       return fail("stereo calibration differs from the first frame's");
-    if (!stereo->hasImageRight) return fail("stereo observation has no right image");
+    const std::optional<bool> has_right = storedBool(stereo->hasImageRight);
+    if (!has_right)
+      return fail("corrupt log: the stereo observation's hasImageRight is not 0 or 1");
+    if (!*has_right) return fail("stereo observation has no right image");
     if (Status st = impl_->loadImage(stereo->imageLeft, "left", &frame->stereo.left); !st)
       return fail(st.message());
     if (Status st = impl_->loadImage(stereo->imageRight, "right", &frame->stereo.right); !st)
@@ -892,7 +904,9 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
         frame->ground_truth->t_ns = frame->stereo.t_ns;
         frame->ground_truth->T_w_b = fromMrptPose(gp->pose.mean);
       } else if (auto d = std::dynamic_pointer_cast<mrpt::obs::CObservation3DRangeScan>(o)) {
-        if (d->sensorLabel != kGtDepthLabel || !d->hasRangeImage) continue;
+        const std::optional<bool> has_range = storedBool(d->hasRangeImage);
+        if (!has_range) throw BadSizeError("the depth image's hasRangeImage is not 0 or 1");
+        if (d->sensorLabel != kGtDepthLabel || !*has_range) continue;
         d->load();
         if (!frame->ground_truth) frame->ground_truth = GroundTruthFrame{};
         auto& img = frame->ground_truth->depth_left;

@@ -43,6 +43,7 @@ Status commitStaged(const std::vector<StagedMove>& moves);
 
 struct RawlogWriterOptions {
   /// zlib level of the rawlog stream, 0 (none) to 9; 1 is fast and shrinks depth images ~3x.
+  /// Limits (validate()): depth_unit_m in [0, 1], max_depth_m in (0, kMaxLogCoordinateM].
   int gzip_level = 1;
   /// Depth quantisation of the ground-truth depth image [m per unit]. 0 = choose the finest
   /// unit that still represents max_depth_m in 16 bits.
@@ -107,8 +108,9 @@ class RawlogWriter {
 /// exists, else "<dir>/Images" (MRPT's convention).
 std::string imagesDirectoryFor(const std::string& rawlog_path);
 
-/// Largest coordinate a log's odometry or ground-truth translation may have [m]; a frame with a
-/// larger, NaN or infinite pose (or a non-finite ground-truth depth) is an error naming it.
+/// Largest coordinate a log's ground-truth translation may have [m]; a frame with a larger, NaN
+/// or infinite ground-truth pose (or a non-finite ground-truth depth) is an error naming it.
+/// Odometry is delivered as read (`twocam run` skips frames with non-finite odometry).
 inline constexpr double kMaxLogCoordinateM = 1e6;
 
 /// One frame read from a log.

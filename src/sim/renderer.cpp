@@ -14,6 +14,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "common/options_check.h"
 #include "yaml/yaml_text.h"
 
 namespace twocam::sim {
@@ -73,11 +74,10 @@ mrpt::poses::CPose3D toMrptPose(const Eigen::Isometry3d& T) {
 }  // namespace
 
 Status RendererOptions::validate() const {
-  if (!(clip_near_m > 0.0) || !std::isfinite(clip_near_m))
-    return Status::error("renderer clip_near_m = " + std::to_string(clip_near_m) + ": must be > 0");
-  if (!(clip_far_margin_m >= 0.0) || !std::isfinite(clip_far_margin_m))
-    return Status::error("renderer clip_far_margin_m must be >= 0");
-  return Status::ok();
+  // Near plane up to 10 m (the shipped rigs see from 0.1 m); far margin up to 1 km.
+  if (Status s = checkPositive("renderer clip_near_m", clip_near_m, "m"); !s) return s;
+  if (Status s = checkRange("renderer clip_near_m", clip_near_m, 0.0, 10.0, "m"); !s) return s;
+  return checkRange("renderer clip_far_margin_m", clip_far_margin_m, 0.0, 1000.0, "m");
 }
 
 struct StereoRenderer::Impl {

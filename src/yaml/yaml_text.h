@@ -21,8 +21,13 @@ namespace twocam::yaml {
 /// a directive followed by invalid UTF-8), so no such byte and no directive reaches them.
 std::optional<std::string> checkYamlText(const std::string& text);
 
-/// Parses `text` into *doc (after checkYamlText). Returns nullopt on success, else the reason, e.g.
-/// "line 2, column 1: flow sequence without a closing bracket".
+/// The first key given twice in one map, as "line L: duplicate key 'k' (first at line F)";
+/// nullopt if none. MRPT keeps one of the values silently. Covers block maps (also as sequence
+/// items) and flow maps; block scalars are skipped. Run by parseYaml after a successful parse.
+std::optional<std::string> findDuplicateKey(const std::string& text);
+
+/// Parses `text` into *doc (after checkYamlText; duplicate keys are errors). Returns nullopt on
+/// success, else the reason, e.g. "line 2, column 1: flow sequence without a closing bracket".
 ///
 /// MRPT 2.5 hands libfyaml's syntax errors to C's stderr and returns the tree parsed up to the
 /// error as if nothing happened; stderr is redirected for the duration of the parse to learn

@@ -350,7 +350,34 @@ TEST(Rawlog, HugeDeclaredStringIsAnErrorNotAnAllocation) {
   EXPECT_NE(st.message().find("above 256 MiB"), std::string::npos) << st.message();
 }
 
-TEST(Rawlog, NonFiniteOrHugeGroundTruthPosesAreErrorsNamingTheFrame) {
+TEST(Rawlog, NonFiniteOdometryIsDeliveredForThePipelineToSkip) {
+  const std::string dir = test::makeTempDir("rawlog_nan_odometry");
+  const std::string path = dir + "/odo.rawlog";
+  const StereoRig rig = testRig();
+  std::mt19937 rng(42);
+  std::unique_ptr<RawlogWriter> w;
+  ASSERT_TRUE(RawlogWriter::open(path, rig, {}, &w).isOk());
+  for (int k = 0; k < 3; ++k) {
+    Frame f = makeFrame(rig, k, rng);
+    if (k == 1) f.odom.pose.x_m = std::numeric_limits<double>::quiet_NaN();
+    ASSERT_TRUE(w->write(f.stereo, &f.odom, &f.gt).isOk());
+  }
+  ASSERT_TRUE(w->finish().isOk());
+  std::unique_ptr<RawlogReader> r;
+  ASSERT_TRUE(RawlogReader::open(path, &r).isOk());
+  LogFrame frame;
+  Status st;
+  int n = 0;
+  while (r->next(&frame, &st)) {
+    ASSERT_TRUE(frame.odometry.has_value());
+    EXPECT_EQ(std::isnan(frame.odometry->pose.x_m), n == 1);
+    ++n;
+  }
+  EXPECT_EQ(n, 3);
+  EXPECT_TRUE(st.isOk()) << st.message();
+}
+
+TEST(Rawlog, NonFiniteOrHugeGroundTruthIsAnErrorNamingTheFrame) {
   const std::string dir = test::makeTempDir("rawlog_nan");
   struct Case {
     const char* name;
@@ -385,31 +412,29 @@ TEST(Rawlog, NonFiniteOrHugeGroundTruthPosesAreErrorsNamingTheFrame) {
   }
 }
 
-TEST(Rawlog, NonFiniteOdometryIsPassedOnForTheRunToSkip) {
-  const std::string dir = test::makeTempDir("rawlog_nan_odometry");
-  const std::string path = dir + "/run.rawlog";
-  const StereoRig rig = testRig();
-  std::mt19937 rng(42);
-  std::unique_ptr<RawlogWriter> w;
-  ASSERT_TRUE(RawlogWriter::open(path, rig, {}, &w).isOk());
-  for (int k = 0; k < 3; ++k) {
-    Frame f = makeFrame(rig, k, rng);
-    if (k == 1) f.odom.pose.x_m = std::numeric_limits<double>::quiet_NaN();
-    ASSERT_TRUE(w->write(f.stereo, &f.odom, &f.gt).isOk());
+}  // namespace
+}  // namespace twocam::io
+
+namespace twocam::io {
+namespace {
+
+TEST(Rawlog, EveryFuzzCorpusLogReadsToAnEnd) {
+  // Inputs fuzzing found (regress_*) among the seeds: each must end in a clean end or an error
+  // (under ASan + UBSan: without a report; regress_bool_byte stored 129 in a bool).
+  const fs::path dir = fs::path(test::sourceDir()) / "tests/fuzz/corpus/rawlog";
+  int logs = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    std::unique_ptr<RawlogReader> r;
+    if (RawlogReader::open(entry.path().string(), &r).isOk()) {
+      LogFrame frame;
+      Status st;
+      constexpr int kMaxFrames = 1000;
+      for (int k = 0; k < kMaxFrames && r->next(&frame, &st); ++k) {
+      }
+    }
+    ++logs;
   }
-  ASSERT_TRUE(w->finish().isOk());
-  std::unique_ptr<RawlogReader> r;
-  ASSERT_TRUE(RawlogReader::open(path, &r).isOk());
-  LogFrame frame;
-  Status st;
-  int n = 0;
-  while (r->next(&frame, &st)) {
-    ASSERT_TRUE(frame.odometry.has_value());
-    EXPECT_EQ(std::isnan(frame.odometry->pose.x_m), n == 1);
-    ++n;
-  }
-  EXPECT_TRUE(st.isOk()) << st.message();
-  EXPECT_EQ(n, 3);
+  EXPECT_GE(logs, 2);
 }
 
 }  // namespace

@@ -163,6 +163,22 @@ TEST(Reliability, StereoEvalUnknownPictureFormatIsOneLine) {
   EXPECT_EQ(lineCount(r.error), 1) << r.error;
 }
 
+TEST(Reliability, CorruptTextureImageIsOneLineWithoutLibpngNoise) {
+  const std::string dir = test::makeTempDir("reliab_png");
+  // A PNG whose header chunk fails its CRC: libpng printed "libpng error: IHDR: CRC error".
+  std::string png("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\0\x04\0\0\0\x04\x08\0\0\0\0BAD!", 33);
+  writeFile(dir + "/bad.png", png);
+  std::string world = readFile(smallWorld());
+  const std::string from = "texture: {kind: checker, scale_m: 0.1}";
+  world.replace(world.find(from), from.size(), "texture: {kind: image, file: bad.png}");
+  writeFile(dir + "/w.yaml", world);
+  const RunResult r = run("simulate " + dir + "/w.yaml -o " + dir + "/w.rawlog --frames 1 -q");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.error.find("libpng"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("cannot be read as an image"), std::string::npos) << r.error;
+  EXPECT_EQ(lineCount(r.error), 1) << r.error;
+}
+
 TEST(Reliability, RigAboveTheRendererLimitIsOneLine) {
   const std::string dir = test::makeTempDir("reliab_rig");
   std::string world = readFile(smallWorld());
