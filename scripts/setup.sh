@@ -9,8 +9,8 @@ PACKAGES=(
   libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev nlohmann-json3-dev
   # Headless rendering: EGL with Mesa's software rasteriser (llvmpipe).
   libegl1 libegl-mesa0 libgl1-mesa-dri libgles2
-  # libFuzzer harnesses (tests/fuzz, scripts/fuzz_smoke.sh) need clang.
-  clang
+  # Format and static checks (scripts/lint.sh), clang for the fuzz harnesses (tests/fuzz).
+  clang-format clang-tidy clang
   # Plots from the CSV/JSON outputs.
   python3 python3-matplotlib python3-numpy
 )

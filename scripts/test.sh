@@ -1,13 +1,22 @@
 #!/usr/bin/env bash
-# The test command: installs what is missing, builds (Release), runs the whole test suite,
-# then the sanitizer build (ASan + UBSan) and its tests unless TWOCAM_SKIP_ASAN=1.
+# The test command: installs what is missing, checks format and clang-tidy (scripts/lint.sh),
+# builds (Release), runs the whole test suite, a short seeded fuzz run of the readers
+# (scripts/fuzz_smoke.sh, when clang is there), then the sanitizer build (ASan + UBSan) and its
+# tests. TWOCAM_SKIP_LINT=1, TWOCAM_SKIP_FUZZ=1 and TWOCAM_SKIP_ASAN=1 skip those steps.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
+if [ "${TWOCAM_SKIP_LINT:-0}" != "1" ]; then
+  scripts/lint.sh
+fi
 echo "== release build and tests"
 cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_COMPILE_WARNING_AS_ERROR=ON >/dev/null
 cmake --build build/release -j "$(nproc)"
 (cd build/release && ctest --output-on-failure -j "$(nproc)")
+if [ "${TWOCAM_SKIP_FUZZ:-0}" != "1" ] && [ -x scripts/fuzz_smoke.sh ]; then
+  echo "== fuzz smoke run (libFuzzer, fixed seed)"
+  scripts/fuzz_smoke.sh "${TWOCAM_FUZZ_SECONDS:-20}"
+fi
 if [ "${TWOCAM_SKIP_ASAN:-0}" != "1" ]; then
   echo "== sanitizer build (ASan + UBSan) and tests"
   cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTWOCAM_SANITIZERS=ON \

@@ -209,10 +209,10 @@ int runSimulate(const SimulateArgs& args) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
 
   const int n = world.frames;
-  const int kSheetRows = std::min(4, n);
+  const int sheet_rows = std::min(4, n);
   std::vector<int> sheet_frames;
-  for (int k = 0; k < kSheetRows; ++k)
-    sheet_frames.push_back(kSheetRows == 1 ? 0 : k * (n - 1) / (kSheetRows - 1));
+  for (int k = 0; k < sheet_rows; ++k)
+    sheet_frames.push_back(sheet_rows == 1 ? 0 : k * (n - 1) / (sheet_rows - 1));
   std::vector<io::ContactSheetRow> sheet;
   std::ostringstream traj;
   traj << "frame,t_s,true_x_m,true_y_m,true_yaw_rad,odom_x_m,odom_y_m,odom_yaw_rad\n";

@@ -11,7 +11,7 @@
 ///   y'' = y' (1 + k1 r^2 + k2 r^4) + p1 (r^2 + 2 y'^2) + 2 p2 x' y',
 ///   u = fx x'' + cx, v = fy y'' + cy.
 /// Pixel convention: (0, 0) is the centre of the top-left pixel (OpenCV's and the project's
-/// convention, ../shared/METRICS.md). EuRoC's Kalibr calibrations use the same convention, so
+/// convention, docs/conventions.md). EuRoC's Kalibr calibrations use the same convention, so
 /// their cu, cv are taken over unchanged.
 
 #include <Eigen/Geometry>

@@ -1,6 +1,6 @@
 #pragma once
 /// The rectified stereo rig: shared pinhole intrinsics, baseline, and mounting on the robot.
-/// Conventions (../shared/METRICS.md): camera optical frame x right, y down, z forward;
+/// Conventions (docs/conventions.md): camera optical frame x right, y down, z forward;
 /// pixel (0, 0) is the centre of the top-left pixel; the right camera sits at +baseline
 /// along the left camera's x axis; disparity d = u_left - u_right, depth Z = fx * B / d.
 

@@ -9,8 +9,9 @@
 namespace twocam {
 
 /// Result of an operation that can fail because of bad input or configuration.
-/// Default-constructed Status is OK. The message names what was wrong.
-class Status {
+/// Default-constructed Status is OK. The message names what was wrong. [[nodiscard]]: a
+/// Status that nobody reads is an error that nobody handles.
+class [[nodiscard]] Status {
  public:
   Status() = default;
   static Status ok() { return Status(); }

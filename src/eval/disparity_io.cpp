@@ -284,12 +284,12 @@ Status disparityFromDepth(const ImageF32& depth_m, const StereoRig& rig, Dispari
   const int w = depth_m.width;
   const int h = depth_m.height;
   const double fx_b = rig.fx_px * rig.baseline_m;
-  auto hasSurface = [](float z) { return std::isfinite(z) && z > 0.0f; };
+  auto has_surface = [](float z) { return std::isfinite(z) && z > 0.0f; };
   DisparityGroundTruth out{ImageF32(w, h), ImageU8(w, h, 0)};
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const float z = depth_m(u, v);
-      if (!hasSurface(z)) continue;
+      if (!has_surface(z)) continue;
       float z_min = z;
       float z_max = z;
       bool edge_to_void = false;
@@ -300,7 +300,7 @@ Status disparityFromDepth(const ImageF32& depth_m, const StereoRig& rig, Dispari
           const int uu = u + du;
           if (uu < 0 || uu >= w) continue;
           const float zn = depth_m(uu, vv);
-          if (!hasSurface(zn)) {
+          if (!has_surface(zn)) {
             edge_to_void = true;
             break;
           }

@@ -1,5 +1,5 @@
 #pragma once
-/// Ground-truth disparity for stereo evaluation (../shared/METRICS.md, "Stereo pairs" and
+/// Ground-truth disparity for stereo evaluation (docs/conventions.md, "Stereo pairs" and
 /// "Simulated runs"): readers for the files benchmark suites ship (Middlebury v2 PGM/PNG with
 /// an integer scale, 16-bit PNG as KITTI uses, Middlebury 2014 PFM), a PFM writer, evaluation
 /// masks, and ground truth from a simulator depth image. Only `eval` reads ground truth

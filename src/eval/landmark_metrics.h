@@ -1,5 +1,5 @@
 #pragma once
-/// Evaluation of a landmark run against the simulator's ground truth (../shared/METRICS.md,
+/// Evaluation of a landmark run against the simulator's ground truth (docs/conventions.md,
 /// "Simulated runs"): hypothesis truth, landmark correctness at the anchor, errors, frames to
 /// confirm, and a confidence calibration table. Fed frame by frame beside the pipeline; it keeps
 /// only the anchor truth of live landmarks, so memory follows the database's.

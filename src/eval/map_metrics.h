@@ -1,5 +1,5 @@
 #pragma once
-/// Occupancy map against the simulator's world (../shared/METRICS.md, "Occupancy"): at map
+/// Occupancy map against the simulator's world (docs/conventions.md, "Occupancy"): at map
 /// resolution r, an occupied voxel is phantom when its centre is farther than 2r from every
 /// surface of the world (sim/world_distance.h).
 

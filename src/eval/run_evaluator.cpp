@@ -50,8 +50,8 @@ std::string timingsCsv(const std::vector<pipeline::FrameRecord>& records) {
          "confirmed\n";
   for (const pipeline::FrameRecord& r : records) {
     csv << r.frame << ',' << r.times.frontend_ms << ',' << r.times.landmarks_ms << ','
-        << r.times.mapping_ms << ',' << r.times.total_ms() << ',' << r.corners << ','
-        << r.hypotheses << ',' << r.candidates << ',' << r.confirmed << '\n';
+        << r.times.mapping_ms << ',' << r.times.totalMs() << ',' << r.corners << ',' << r.hypotheses
+        << ',' << r.candidates << ',' << r.confirmed << '\n';
   }
   return csv.str();
 }
@@ -67,7 +67,7 @@ StageSamples stageSamples(const std::vector<pipeline::FrameRecord>& records) {
     s.frontend.push_back(r.times.frontend_ms);
     s.landmarks.push_back(r.times.landmarks_ms);
     s.mapping.push_back(r.times.mapping_ms);
-    s.total.push_back(r.times.total_ms());
+    s.total.push_back(r.times.totalMs());
   }
   return s;
 }

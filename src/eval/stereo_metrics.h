@@ -1,5 +1,5 @@
 #pragma once
-/// Stereo-pair metrics against ground-truth disparity, exactly as ../shared/METRICS.md
+/// Stereo-pair metrics against ground-truth disparity, exactly as docs/conventions.md
 /// ("Stereo pairs", `stereo-eval`) defines them, for dense disparity maps and for the salient
 /// frontend's hypotheses.
 ///

@@ -1,5 +1,5 @@
 #pragma once
-/// Trajectory error (../shared/METRICS.md "Trajectories"): absolute trajectory error with no
+/// Trajectory error (docs/conventions.md "Trajectories"): absolute trajectory error with no
 /// alignment beyond the shared start pose (the odometry frame equals the world frame at the first
 /// frame, so the tracks are compared as they are).
 

@@ -16,7 +16,7 @@
 /// Both fill the same StereoHypotheses (common/features.h) so the two sources can be compared.
 /// measureRowSupport() (row_support.h) adds each hypothesis' agreement with the rows above and
 /// below. The cost-curve kernels and their choice (Simd) are in sad_kernels.h.
-/// Disparity d = u_left - u_right >= 0 (docs: ../shared/METRICS.md).
+/// Disparity d = u_left - u_right >= 0 (docs/conventions.md).
 
 #include <cstddef>  // before common/image.h, which uses size_t without including it
 #include <cstdint>

@@ -76,12 +76,12 @@ Status parsePolicy(const std::string& name, Policy* policy) {
 }
 
 const std::vector<Policy>& allPolicies() {
-  static const std::vector<Policy> policies = {Policy::kConsistency,
-                                               Policy::kWtaLrc,
-                                               Policy::kSeenCount,
-                                               Policy::kCulling,
-                                               Policy::kInlierRatio};
-  return policies;
+  static const std::vector<Policy> kPolicies = {Policy::kConsistency,
+                                                Policy::kWtaLrc,
+                                                Policy::kSeenCount,
+                                                Policy::kCulling,
+                                                Policy::kInlierRatio};
+  return kPolicies;
 }
 
 Status TrackerOptions::validate() const {

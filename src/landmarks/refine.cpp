@@ -76,10 +76,12 @@ struct AnchoredResidual {
 /// A point behind a camera gets a large residual, so a step that goes there is rejected.
 struct HuberProblem {
   using Scalar = double;
+  // NOLINTNEXTLINE(readability-identifier-naming): names fixed by ceres::TinySolver.
   enum { NUM_RESIDUALS = Eigen::Dynamic, NUM_PARAMETERS = 1 };
   const std::vector<AnchoredResidual>* residuals;
   double k;
 
+  // NOLINTNEXTLINE(readability-identifier-naming): ceres::TinySolver's name.
   [[nodiscard]] int NumResiduals() const { return static_cast<int>(residuals->size()); }
 
   bool operator()(const double* params, double* out, double* jacobian) const {

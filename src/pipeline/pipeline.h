@@ -23,7 +23,7 @@ struct StageTimes {
   double frontend_ms = 0.0;
   double landmarks_ms = 0.0;
   double mapping_ms = 0.0;
-  [[nodiscard]] double total_ms() const { return frontend_ms + landmarks_ms + mapping_ms; }
+  [[nodiscard]] double totalMs() const { return frontend_ms + landmarks_ms + mapping_ms; }
 };
 
 /// What one frame produced. Refers to the pipeline's state: valid until the next call.

@@ -119,7 +119,7 @@ Status buildMeshes(const World& world, std::mt19937_64& rng, std::vector<Texture
           st = rasterizeTexture(s.texture, 2.0 * r, 2.0 * r, rng, &m.texture);
           if (!st) break;
           const Eigen::Vector3d c = t + (cap == 0 ? 0.0 : height) * ez;
-          auto uvOf = [&](double x, double y) {
+          auto uv_of = [&](double x, double y) {
             return Eigen::Vector2d(0.5 + 0.5 * x / r, 0.5 + 0.5 * y / r);
           };
           for (int k = 0; k < n; ++k) {
@@ -131,9 +131,9 @@ Status buildMeshes(const World& world, std::mt19937_64& rng, std::vector<Texture
             f.p0 = c;
             f.e1 = x0 * ex + y0 * ey;
             f.e2 = x1 * ex + y1 * ey;
-            f.uv0 = uvOf(0, 0);
-            f.uv1 = uvOf(x0, y0);
-            f.uv2 = uvOf(x1, y1);
+            f.uv0 = uv_of(0, 0);
+            f.uv1 = uv_of(x0, y0);
+            f.uv2 = uv_of(x1, y1);
             m.facets.push_back(f);
           }
           meshes->push_back(std::move(m));

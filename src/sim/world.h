@@ -1,7 +1,7 @@
 #pragma once
 /// A simulated world: static textured scene, robot path, stereo rig, sensor noise and seed.
 /// A world file (worlds/*.yaml, format in worlds/README.md) fully determines a simulation.
-/// Frames: world x forward, y left, z up; the robot drives on z = 0 (../shared/METRICS.md).
+/// Frames: world x forward, y left, z up; the robot drives on z = 0 (docs/conventions.md).
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

@@ -1,6 +1,6 @@
 #pragma once
 /// Euclidean distance from a point to the surfaces of a world (ground truth for the phantom
-/// voxel metric, ../shared/METRICS.md "Occupancy"). Shapes are the exact solids of world.h;
+/// voxel metric, docs/conventions.md "Occupancy"). Shapes are the exact solids of world.h;
 /// the renderer draws cylinders as prisms (surfaces.h), which differ from the true cylinder
 /// by at most r (1 - cos(pi / n)), under 1 mm for the radii of the shipped worlds.
 /// The world has no implicit floor or ceiling: they are plane shapes of the world file.

@@ -37,7 +37,7 @@ inline cv::Mat benchTexture(cv::RNG& rng, int width, int height) {
 
 /// The pair: background at 8 px, a box at 24 px and a nearer box at 48 px disparity.
 inline const BenchStereoPair& benchStereoPair() {
-  static const BenchStereoPair pair = [] {
+  static const BenchStereoPair kPair = [] {
     cv::RNG rng(kBenchSeed);
     struct Layer {
       cv::Rect rect;
@@ -85,7 +85,7 @@ inline const BenchStereoPair& benchStereoPair() {
     p.disparity = frontend::toImageF32(disp);
     return p;
   }();
-  return pair;
+  return kPair;
 }
 
 }  // namespace twocam::bench

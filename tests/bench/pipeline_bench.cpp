@@ -43,7 +43,7 @@ struct RecordedLog {
 };
 
 const RecordedLog& recordedLog() {
-  static const RecordedLog log = [] {
+  static const RecordedLog kLog = [] {
     RecordedLog l;
     const char* env = std::getenv("TWOCAM_BENCH_LOG");
     l.path = env ? env : "out/office.rawlog";
@@ -71,7 +71,7 @@ const RecordedLog& recordedLog() {
     if (l.frames.empty() && l.error.empty()) l.error = l.path + ": no frames with odometry";
     return l;
   }();
-  return log;
+  return kLog;
 }
 
 /// The config of the run: the defaults, or TWOCAM_BENCH_CONFIG's file over them.
@@ -92,7 +92,7 @@ double quantile(std::vector<double> v, double q) {
 struct StageSamples {
   std::vector<double> total, frontend, landmarks, mapping;
   void add(const pipeline::StageTimes& t) {
-    total.push_back(t.total_ms());
+    total.push_back(t.totalMs());
     frontend.push_back(t.frontend_ms);
     landmarks.push_back(t.landmarks_ms);
     mapping.push_back(t.mapping_ms);

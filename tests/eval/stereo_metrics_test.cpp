@@ -283,29 +283,29 @@ TEST(EvaluateSalient, KBorderAndMaskChangeWhatCounts) {
 TEST(EvaluateSalient, InconsistentInputIsAnError) {
   const SalientCase good = salientCase();
   StereoMetrics m;
-  auto expectError = [&](const StereoHypotheses& hyps, const char* needle) {
+  auto expect_error = [&](const StereoHypotheses& hyps, const char* needle) {
     const Status s = evaluateSalient(hyps, good.gt, nullptr, StereoEvalOptions{}, &m);
     EXPECT_FALSE(s.isOk()) << needle;
     EXPECT_NE(s.message().find(needle), std::string::npos) << s.message();
   };
   StereoHypotheses h = good.hyps;
   h.points[2].corner.u_px = 20;
-  expectError(h, "outside");
+  expect_error(h, "outside");
   h = good.hyps;
   h.points[3].corner.v_px = -1;
-  expectError(h, "outside");
+  expect_error(h, "outside");
   h = good.hyps;
   h.points.back().num_hypotheses = 2;
-  expectError(h, "only 11 exist");
+  expect_error(h, "only 11 exist");
   h = good.hyps;
   h.hypotheses[1].point_index = 0;
-  expectError(h, "point_index");
+  expect_error(h, "point_index");
   h = good.hyps;
   h.hypotheses[2].rank = 0;  // p1 now has two rank-0 hypotheses
-  expectError(h, "two rank-0");
+  expect_error(h, "two rank-0");
   h = good.hyps;
   h.hypotheses[0].rank = 1;
-  expectError(h, "none of rank 0");
+  expect_error(h, "none of rank 0");
   const ImageU8 mask(19, 10, 255);
   EXPECT_FALSE(evaluateSalient(good.hyps, good.gt, &mask, StereoEvalOptions{}, &m).isOk());
   StereoEvalOptions o;

@@ -79,7 +79,7 @@ SyntheticPair makeLayeredPair(uint32_t seed, int width, int height, double noise
   std::uniform_int_distribution<int> texel(0, 255);
   // Texture indexed by scene column s (the left column where that texel shows), blurred over
   // two texels along the row so that the texture has a little spatial correlation.
-  auto makeTexture = [&](int n) {
+  auto make_texture = [&](int n) {
     std::vector<uint8_t> raw(static_cast<size_t>(n) + 1);
     for (auto& t : raw) t = static_cast<uint8_t>(texel(rng));
     std::vector<uint8_t> tex(static_cast<size_t>(n));
@@ -99,8 +99,8 @@ SyntheticPair makeLayeredPair(uint32_t seed, int width, int height, double noise
   };
   for (int v = 0; v < height; ++v) {
     // Background texels for scene columns -bg_d .. width - 1 + bg_d (offset by bg_d).
-    const std::vector<uint8_t> bg = makeTexture(width + 2 * p.bg_d);
-    const std::vector<uint8_t> box = makeTexture(width);
+    const std::vector<uint8_t> bg = make_texture(width + 2 * p.bg_d);
+    const std::vector<uint8_t> box = make_texture(width);
     const bool box_row = v >= box_v0 && v < box_v1;
     for (int u = 0; u < width; ++u) {
       const bool in_box = box_row && u >= box_u0 && u < box_u1;

@@ -110,10 +110,10 @@ TEST(SalientSad, RejectsBadInput) {
 
   StereoHypotheses out;
   out.points.resize(3);  // must stay untouched on error
-  auto expectError = [&](const ImageU8& l,
-                         const ImageU8& r,
-                         const SalientSadOptions& o,
-                         const std::string& needle) {
+  auto expect_error = [&](const ImageU8& l,
+                          const ImageU8& r,
+                          const SalientSadOptions& o,
+                          const std::string& needle) {
     Status s = matchSalient(l, r, corners, o, &out);
     EXPECT_FALSE(s.isOk());
     EXPECT_NE(s.message().find(needle), std::string::npos) << s.message();
@@ -122,19 +122,19 @@ TEST(SalientSad, RejectsBadInput) {
     EXPECT_NE(s.message().find(needle), std::string::npos) << s.message();
     EXPECT_EQ(out.points.size(), 3u);
   };
-  expectError(ImageU8(), pair.right, options, "empty");
-  expectError(pair.left, ImageU8(), options, "empty");
-  expectError(pair.left, ImageU8(161, 60), options, "sizes differ");
-  expectError(pair.left, ImageU8(160, 59), options, "sizes differ");
+  expect_error(ImageU8(), pair.right, options, "empty");
+  expect_error(pair.left, ImageU8(), options, "empty");
+  expect_error(pair.left, ImageU8(161, 60), options, "sizes differ");
+  expect_error(pair.left, ImageU8(160, 59), options, "sizes differ");
   ImageU8 broken = pair.right;
   broken.data.pop_back();
-  expectError(pair.left, broken, options, "buffer size");
+  expect_error(pair.left, broken, options, "buffer size");
   SalientSadOptions too_wide;
   too_wide.max_disparity_px = 150;  // 150 + 11 > 160
-  expectError(pair.left, pair.right, too_wide, "exceeds the image width");
+  expect_error(pair.left, pair.right, too_wide, "exceeds the image width");
   SalientSadOptions bad;
   bad.cost_ratio = 0.5f;
-  expectError(pair.left, pair.right, bad, "cost_ratio");
+  expect_error(pair.left, pair.right, bad, "cost_ratio");
 
   EXPECT_FALSE(matchSalient(pair.left, pair.right, corners, options, nullptr).isOk());
   EXPECT_FALSE(pairCorners(pair.left, pair.right, corners, corners, options, nullptr).isOk());

@@ -170,7 +170,7 @@ void expectRig(const StereoRig& got, const ForeignRig& want) {
       EXPECT_NEAR(got.T_b_cl.matrix()(r, c), M(r, c), kPoseTol) << r << "," << c;
 }
 
-#define EXPECT_MESSAGE_HAS(status, text) \
+#define TWOCAM_EXPECT_MESSAGE_HAS(status, text) \
   EXPECT_NE((status).message().find(text), std::string::npos) << "message: " << (status).message()
 
 // --- (a) sensory-frame rawlogs ---------------------------------------------------------------
@@ -334,8 +334,8 @@ TEST(ForeignRawlogErrors, MissingFile) {
   const std::string path = test::makeTempDir("foreign_missing") + "/nothing.rawlog";
   const ReadResult r = readAll(path);
   ASSERT_FALSE(r.open.isOk());
-  EXPECT_MESSAGE_HAS(r.open, path);
-  EXPECT_MESSAGE_HAS(r.open, "no such file");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.open, path);
+  TWOCAM_EXPECT_MESSAGE_HAS(r.open, "no such file");
 }
 
 TEST(ForeignRawlogErrors, RandomGarbage) {
@@ -348,7 +348,7 @@ TEST(ForeignRawlogErrors, RandomGarbage) {
     writeBytes(path, bytes);
     const ReadResult r = readAll(path);
     ASSERT_FALSE(r.open.isOk()) << "seed " << seed;
-    EXPECT_MESSAGE_HAS(r.open, path);
+    TWOCAM_EXPECT_MESSAGE_HAS(r.open, path);
   }
 }
 
@@ -370,7 +370,7 @@ TEST(ForeignRawlogErrors, ValidStartThenGarbage) {
     writeBytes(header_only, readBytes(header_only) + garbage);
     const ReadResult h = readAll(header_only);
     ASSERT_FALSE(h.open.isOk()) << "seed " << seed;
-    EXPECT_MESSAGE_HAS(h.open, header_only);
+    TWOCAM_EXPECT_MESSAGE_HAS(h.open, header_only);
 
     const std::string one_frame = dir + "/frame" + std::to_string(seed) + ".rawlog";
     writeObservations(one_frame, {comment, stereoObs(rig, ticksTime(1'000'000'000LL), "CAM", 1)});
@@ -379,8 +379,8 @@ TEST(ForeignRawlogErrors, ValidStartThenGarbage) {
     ASSERT_TRUE(f.open.isOk()) << f.open.message();
     EXPECT_EQ(f.frames.size(), 1u);
     ASSERT_FALSE(f.end.isOk()) << "seed " << seed << ": garbage after a frame must not end cleanly";
-    EXPECT_MESSAGE_HAS(f.end, one_frame);
-    EXPECT_MESSAGE_HAS(f.end, "frame 1");
+    TWOCAM_EXPECT_MESSAGE_HAS(f.end, one_frame);
+    TWOCAM_EXPECT_MESSAGE_HAS(f.end, "frame 1");
   }
 }
 
@@ -409,13 +409,13 @@ TEST(ForeignRawlogErrors, TruncatedGzipLog) {
                bytes.substr(0, static_cast<size_t>(fraction * static_cast<double>(bytes.size()))));
     const ReadResult r = readAll(cut);
     if (!r.open.isOk()) {
-      EXPECT_MESSAGE_HAS(r.open, cut);
+      TWOCAM_EXPECT_MESSAGE_HAS(r.open, cut);
       continue;
     }
     EXPECT_LT(r.frames.size(), static_cast<size_t>(kFrames)) << fraction;
     EXPECT_FALSE(r.end.isOk()) << "cut at " << fraction << " read " << r.frames.size()
                                << " frames and ended cleanly";
-    EXPECT_MESSAGE_HAS(r.end, cut);
+    TWOCAM_EXPECT_MESSAGE_HAS(r.end, cut);
   }
 }
 
@@ -427,8 +427,8 @@ TEST(ForeignRawlogErrors, NoStereoObservations) {
        odometryObs(ticksTime(1'100'000'000LL), "ODOM", mrpt::poses::CPose2D(0.1, 0, 0))});
   const ReadResult r = readAll(path);
   ASSERT_FALSE(r.open.isOk());
-  EXPECT_MESSAGE_HAS(r.open, path);
-  EXPECT_MESSAGE_HAS(r.open, "no stereo images");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.open, path);
+  TWOCAM_EXPECT_MESSAGE_HAS(r.open, "no stereo images");
 }
 
 TEST(ForeignRawlogErrors, ImagesDoNotMatchTheirCalibration) {
@@ -437,7 +437,7 @@ TEST(ForeignRawlogErrors, ImagesDoNotMatchTheirCalibration) {
   // Frame 1 of each log is broken; frame 0 is fine.
   struct Case {
     const char* name;
-    std::function<void(mrpt::obs::CObservationStereoImages&)> breakIt;
+    std::function<void(mrpt::obs::CObservationStereoImages&)> break_it;
   };
   const std::vector<Case> cases = {
       {"left_wider",
@@ -463,15 +463,15 @@ TEST(ForeignRawlogErrors, ImagesDoNotMatchTheirCalibration) {
   for (const Case& c : cases) {
     const std::string path = dir + "/" + c.name + ".rawlog";
     auto bad = stereoObs(rig, ticksTime(2'000'000'000LL), "CAM", 1);
-    c.breakIt(*bad);
+    c.break_it(*bad);
     writeObservations(path, {stereoObs(rig, ticksTime(1'000'000'000LL), "CAM", 0), bad});
     const ReadResult r = readAll(path);
     ASSERT_TRUE(r.open.isOk()) << c.name << ": " << r.open.message();
     EXPECT_EQ(r.frames.size(), 1u) << c.name;
     ASSERT_FALSE(r.end.isOk()) << c.name;
-    EXPECT_MESSAGE_HAS(r.end, path);
-    EXPECT_MESSAGE_HAS(r.end, "frame 1");
-    EXPECT_MESSAGE_HAS(r.end, "do not match");
+    TWOCAM_EXPECT_MESSAGE_HAS(r.end, path);
+    TWOCAM_EXPECT_MESSAGE_HAS(r.end, "frame 1");
+    TWOCAM_EXPECT_MESSAGE_HAS(r.end, "do not match");
   }
   // A first frame that is already inconsistent is reported as frame 0.
   const std::string path = dir + "/first.rawlog";
@@ -482,7 +482,7 @@ TEST(ForeignRawlogErrors, ImagesDoNotMatchTheirCalibration) {
   const ReadResult r = readAll(path);
   ASSERT_TRUE(r.open.isOk()) << r.open.message();
   EXPECT_TRUE(r.frames.empty());
-  EXPECT_MESSAGE_HAS(r.end, "frame 0");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, "frame 0");
 }
 
 TEST(ForeignRawlogErrors, CalibrationChangesOrIsNotRectified) {
@@ -497,9 +497,9 @@ TEST(ForeignRawlogErrors, CalibrationChangesOrIsNotRectified) {
   ReadResult r = readAll(changed);
   ASSERT_TRUE(r.open.isOk()) << r.open.message();
   EXPECT_EQ(r.frames.size(), 1u);
-  EXPECT_MESSAGE_HAS(r.end, changed);
-  EXPECT_MESSAGE_HAS(r.end, "frame 1");
-  EXPECT_MESSAGE_HAS(r.end, "calibration differs");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, changed);
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, "frame 1");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, "calibration differs");
 
   const std::string raw = dir + "/raw.rawlog";
   auto distorted = stereoObs(rig, ticksTime(1'000'000'000LL), "CAM", 0);
@@ -507,8 +507,8 @@ TEST(ForeignRawlogErrors, CalibrationChangesOrIsNotRectified) {
   writeObservations(raw, {distorted});
   r = readAll(raw);
   ASSERT_FALSE(r.open.isOk());
-  EXPECT_MESSAGE_HAS(r.open, raw);
-  EXPECT_MESSAGE_HAS(r.open, "not rectified");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.open, raw);
+  TWOCAM_EXPECT_MESSAGE_HAS(r.open, "not rectified");
 }
 
 TEST(ForeignRawlogErrors, MissingExternalImage) {
@@ -534,10 +534,10 @@ TEST(ForeignRawlogErrors, MissingExternalImage) {
   ASSERT_TRUE(r.open.isOk()) << r.open.message();
   EXPECT_EQ(r.frames.size(), 1u);
   ASSERT_FALSE(r.end.isOk());
-  EXPECT_MESSAGE_HAS(r.end, path);
-  EXPECT_MESSAGE_HAS(r.end, "frame 1");
-  EXPECT_MESSAGE_HAS(r.end, dir + "/ext_Images/r1.png");
-  EXPECT_MESSAGE_HAS(r.end, "missing");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, path);
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, "frame 1");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, dir + "/ext_Images/r1.png");
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, "missing");
 }
 
 }  // namespace

@@ -385,8 +385,8 @@ TEST(OccupancyMapper, WriteBinaryRoundTripsAndReplacesAnExistingFile) {
 TEST(OccupancyMapper, WriteBinaryFailureLeavesAnExistingFileIntact) {
   const std::string dir = test::makeTempDir("mapping_write_binary_fail");
   const std::string path = dir + "/map.bt";
-  const std::string kOldContent = "previous map";
-  { std::ofstream(path) << kOldContent; }
+  const std::string old_content = "previous map";
+  { std::ofstream(path) << old_content; }
   OccupancyMapper mapper(defaultOptions());
   mapper.insertFrame(Eigen::Vector3d::Zero(), {Eigen::Vector3d(1.01, 0.01, 0.01)});
 
@@ -397,7 +397,7 @@ TEST(OccupancyMapper, WriteBinaryFailureLeavesAnExistingFileIntact) {
   EXPECT_NE(st.message().find(".partial"), std::string::npos) << st.message();
   std::ifstream in(path);
   const std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(content, kOldContent);
+  EXPECT_EQ(content, old_content);
 
   // A missing folder fails with its path in the message.
   const Status missing = mapper.writeBinary(dir + "/no_such_folder/map.bt");

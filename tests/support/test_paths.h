@@ -22,4 +22,4 @@ std::string makeTempDir(const std::string& name);
 #define TWOCAM_REQUIRE_SHARED_DATA(var)                                               \
   const auto var##_opt = ::twocam::test::sharedDataDir();                             \
   if (!var##_opt) GTEST_SKIP() << "../shared/data is absent (users' clones lack it)"; \
-  const std::string var = *var##_opt
+  const std::string& var = *var##_opt

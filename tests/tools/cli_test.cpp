@@ -574,17 +574,17 @@ SyntheticPair writeSyntheticPair(const std::string& dir,
 std::optional<std::map<std::string, double>> parseFlatJson(const std::string& text) {
   std::map<std::string, double> values;
   size_t i = 0;
-  auto skipSpace = [&] {
+  auto skip_space = [&] {
     while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
   };
   auto expect = [&](char c) {
-    skipSpace();
+    skip_space();
     if (i >= text.size() || text[i] != c) return false;
     ++i;
     return true;
   };
   if (!expect('{')) return std::nullopt;
-  skipSpace();
+  skip_space();
   if (i < text.size() && text[i] == '}') {
     ++i;
   } else {
@@ -595,7 +595,7 @@ std::optional<std::map<std::string, double>> parseFlatJson(const std::string& te
       const std::string key = text.substr(i, end - i);
       i = end + 1;
       if (!expect(':')) return std::nullopt;
-      skipSpace();
+      skip_space();
       double value = 0.0;
       if (text.compare(i, 4, "null") == 0) {
         value = std::numeric_limits<double>::quiet_NaN();
@@ -613,7 +613,7 @@ std::optional<std::map<std::string, double>> parseFlatJson(const std::string& te
       return std::nullopt;
     }
   }
-  skipSpace();
+  skip_space();
   if (i != text.size()) return std::nullopt;
   return values;
 }
