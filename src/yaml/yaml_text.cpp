@@ -308,7 +308,7 @@ std::optional<std::string> findDuplicateKey(const std::string& text) {
     if (col == std::string::npos) continue;
     std::string rest = line.substr(col);
     // A flow collection (possibly over several lines): scanned as one piece.
-    const auto scanFlow = [&](std::string flow, size_t start_line) -> std::optional<std::string> {
+    const auto scan_flow = [&](std::string flow, size_t start_line) -> std::optional<std::string> {
       size_t last = n;
       while (bracketBalance(flow) > 0 && last + 1 < lines.size()) flow += "\n" + lines[++last];
       n = last;
@@ -317,7 +317,7 @@ std::optional<std::string> findDuplicateKey(const std::string& text) {
       return scan.error;
     };
     if (rest[0] == '{' || rest[0] == '[') {
-      if (auto e = scanFlow(rest, n + 1)) return e;
+      if (auto e = scan_flow(rest, n + 1)) return e;
       continue;
     }
     // "key: value" or "key:" (quoted keys allowed).
@@ -358,7 +358,7 @@ std::optional<std::string> findDuplicateKey(const std::string& text) {
     if (value[0] == '|' || value[0] == '>') {
       block_scalar_indent = col;
     } else if (value[0] == '{' || value[0] == '[') {
-      if (auto e = scanFlow(value, n + 1)) return e;
+      if (auto e = scan_flow(value, n + 1)) return e;
     }
   }
   return std::nullopt;

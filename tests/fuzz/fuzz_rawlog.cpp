@@ -28,19 +28,20 @@ bool hasEmbeddedImage(const std::string& bytes) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (hasEmbeddedImage(std::string(reinterpret_cast<const char*>(data), size))) return 0;
   // One file per process (libFuzzer runs inputs one at a time in a process).
-  static const std::string path = "/tmp/twocam_fuzz_rawlog_" + std::to_string(getpid()) + ".rawlog";
-  std::FILE* f = std::fopen(path.c_str(), "wb");
+  static const std::string kPath =
+      "/tmp/twocam_fuzz_rawlog_" + std::to_string(getpid()) + ".rawlog";
+  std::FILE* f = std::fopen(kPath.c_str(), "wb");
   if (f == nullptr) return 0;
   std::fwrite(data, 1, size, f);
   std::fclose(f);
   std::unique_ptr<twocam::io::RawlogReader> reader;
-  if (twocam::io::RawlogReader::open(path, &reader).isOk()) {
+  if (twocam::io::RawlogReader::open(kPath, &reader).isOk()) {
     twocam::io::LogFrame frame;
     twocam::Status status;
     constexpr int kMaxFrames = 100;  // a fuzz input holds a few frames at most
     for (int k = 0; k < kMaxFrames && reader->next(&frame, &status); ++k) {
     }
   }
-  std::remove(path.c_str());
+  std::remove(kPath.c_str());
   return 0;
 }

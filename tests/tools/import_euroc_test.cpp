@@ -252,7 +252,7 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
   const std::string log_bytes = readFile(log);
   const std::string image_bytes = readFile(images + "/left_000001.png");
   ASSERT_FALSE(log_bytes.empty());
-  auto expectUntouched = [&](const std::string& what) {
+  auto expect_untouched = [&](const std::string& what) {
     EXPECT_EQ(readFile(log), log_bytes) << what << ": the earlier log changed";
     EXPECT_EQ(readFile(images + "/left_000001.png"), image_bytes)
         << what << ": the earlier images changed";
@@ -261,24 +261,24 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
   };
 
   expectError(run("import-euroc " + dir + "/no_such_folder -o " + log + " -q"), "does not exist");
-  expectUntouched("missing folder");
+  expect_untouched("missing folder");
 
   fs::create_directories(dir + "/empty");
   expectError(run("import-euroc " + dir + "/empty -o " + log + " -q"), "is not a EuRoC sequence");
-  expectUntouched("not a sequence");
+  expect_untouched("not a sequence");
 
   {
     const std::string mav0 = copyMicro(micro, dir + "/no_yaml", 3);
     fs::remove(mav0 + "/cam1/sensor.yaml");
     expectError(run("import-euroc " + dir + "/no_yaml/seq -o " + log + " -q"), "cam1/sensor.yaml");
-    expectUntouched("missing sensor.yaml");
+    expect_untouched("missing sensor.yaml");
   }
   {
     const std::string mav0 = copyMicro(micro, dir + "/bad_yaml", 3);
     std::ofstream(mav0 + "/cam0/sensor.yaml")
         << "%YAML:1.0\nresolution: [752, 480\nintrinsics: {{{\n\x01\x02garbage";
     expectError(run("import-euroc " + dir + "/bad_yaml/seq -o " + log + " -q"), "cam0/sensor.yaml");
-    expectUntouched("corrupt sensor.yaml");
+    expect_untouched("corrupt sensor.yaml");
   }
   {
     const std::string mav0 = copyMicro(micro, dir + "/no_image", 3);
@@ -287,7 +287,7 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
     fs::remove(name);
     expectError(run("import-euroc " + dir + "/no_image/seq -o " + log + " -q"),
                 fs::path(name).filename().string());
-    expectUntouched("missing image");
+    expect_untouched("missing image");
   }
   {
     // The third pair's right image has the wrong size: two frames are written before the error.
@@ -301,7 +301,7 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
     const RunResult r = run("import-euroc " + dir + "/small_image/seq -o " + log + " -q");
     expectError(r, "376x240");
     EXPECT_NE(r.error.find("752x480"), std::string::npos) << r.error;
-    expectUntouched("image size");
+    expect_untouched("image size");
   }
   {
     const std::string mav0 = copyMicro(micro, dir + "/corrupt_image", 2);
@@ -310,7 +310,7 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
     std::ofstream(name, std::ios::binary | std::ios::trunc) << "not a png";
     expectError(run("import-euroc " + dir + "/corrupt_image/seq -o " + log + " -q"),
                 fs::path(name).filename().string());
-    expectUntouched("corrupt image");
+    expect_untouched("corrupt image");
   }
   {
     const std::string good = dir + "/good/seq";
@@ -319,7 +319,7 @@ TEST(ImportEuroc, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
     std::ofstream(dir + "/a_file") << "x";
     expectError(run("import-euroc " + good + " -o " + dir + "/a_file/out.rawlog -q"), "a_file");
     expectError(run("import-euroc " + good + " -o " + dir + " -q"), "is a folder");
-    expectUntouched("unwritable output");
+    expect_untouched("unwritable output");
   }
 }
 
