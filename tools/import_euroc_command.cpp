@@ -10,6 +10,7 @@
 #include <sstream>
 #include <vector>
 
+#include "common/stats.h"
 #include "frontend/cv_interop.h"
 #include "frontend/rectify.h"
 #include "io/euroc.h"
@@ -27,12 +28,6 @@ int fail(std::string message) {
   std::replace(message.begin(), message.end(), '\n', ' ');
   std::cerr << "twocam import-euroc: error: " << message << std::endl;
   return 1;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 /// DIR/mav0 when it exists, else DIR itself when it holds cam0/ and cam1/ (DIR is mav0).

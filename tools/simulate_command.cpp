@@ -10,6 +10,7 @@
 #include <sstream>
 #include <vector>
 
+#include "common/stats.h"
 #include "io/pictures.h"
 #include "io/rawlog.h"
 #include "progress.h"
@@ -25,12 +26,6 @@ namespace {
 int fail(const std::string& message) {
   std::cerr << "twocam simulate: error: " << message << std::endl;
   return 1;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 /// Absolute, normalised form of a path for comparisons (symlinks resolved where they exist).

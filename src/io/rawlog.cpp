@@ -37,77 +37,18 @@
 #include <utility>
 
 #include "common/options_check.h"
-
-namespace twocam::io {
-namespace {
-/// Largest single allocation while MRPT deserialises one object of a log, 0 = no limit. MRPT
-/// reads a length (string, vector, image) from the archive and allocates by it before reading
-/// the data, so one changed byte asked for gigabytes (zero-filled: all memory). 256 MiB is far
-/// above any real observation (a 4096 x 3072 colour image is 36 MiB).
-thread_local size_t g_allocation_cap_bytes = 0;
-constexpr size_t kMaxObjectAllocationBytes = size_t{256} << 20;
-
-/// Sets the cap for its lifetime.
-class AllocationCap {
- public:
-  explicit AllocationCap(size_t bytes) : saved_(g_allocation_cap_bytes) {
-    g_allocation_cap_bytes = bytes;
-  }
-  ~AllocationCap() { g_allocation_cap_bytes = saved_; }
-  AllocationCap(const AllocationCap&) = delete;
-  AllocationCap& operator=(const AllocationCap&) = delete;
-
- private:
-  size_t saved_;
-};
-}  // namespace
-}  // namespace twocam::io
-
-// The global operator new, replaced so that the cap above can refuse a request (the standard
-// allows a program to replace it). Without a cap it behaves as the default.
-void* operator new(std::size_t bytes) {
-  if (twocam::io::g_allocation_cap_bytes != 0 && bytes > twocam::io::g_allocation_cap_bytes)
-    throw std::bad_alloc();
-  void* p = std::malloc(bytes == 0 ? 1 : bytes);
-  while (p == nullptr) {
-    std::new_handler handler = std::get_new_handler();
-    if (handler == nullptr) throw std::bad_alloc();
-    handler();
-    p = std::malloc(bytes == 0 ? 1 : bytes);
-  }
-  return p;
-}
-void* operator new[](std::size_t bytes) { return operator new(bytes); }
-void* operator new(std::size_t bytes, const std::nothrow_t& /*tag*/) noexcept {
-  try {
-    return operator new(bytes);
-  } catch (const std::bad_alloc&) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t bytes, const std::nothrow_t& tag) noexcept {
-  return operator new(bytes, tag);
-}
-// The aligned forms stay the library's (their own allocate/free pair).
-// Matching deletes (std::free), also needed where a sanitizer supplies its own operators. GCC
-// cannot see that the operator new above allocates with std::malloc.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
+#include "io/log_guards.h"
 
 namespace twocam::io {
 
 namespace fs = std::filesystem;
+using internal::AllocationCap;
+using internal::BadSizeError;
+using internal::kMaxForeignImagePixels;
+using internal::kMaxForeignImageSidePx;
+using internal::kMaxObjectAllocationBytes;
+using internal::PeekableStream;
+using internal::peekRangeImageSize;
 
 namespace {
 
@@ -422,98 +363,6 @@ Status RawlogWriter::finish() {
 
 // ---------------------------------------------------------------------------------------------
 // Reader
-
-namespace {
-
-/// A read-only stream over another with look-ahead: peek() reads bytes ahead without consuming
-/// them, so that sizes can be checked before MRPT's deserialisers allocate by them.
-class PeekableStream : public mrpt::io::CStream {
- public:
-  explicit PeekableStream(mrpt::io::CStream& source) : source_(source) {}
-
-  size_t Read(void* buffer, size_t count) override {
-    auto* out = static_cast<uint8_t*>(buffer);
-    const size_t from_ahead = std::min(count, ahead_.size() - ahead_pos_);
-    std::memcpy(out, ahead_.data() + ahead_pos_, from_ahead);
-    ahead_pos_ += from_ahead;
-    if (ahead_pos_ == ahead_.size()) {
-      ahead_.clear();
-      ahead_pos_ = 0;
-    }
-    size_t n = from_ahead;
-    if (n < count) n += source_.Read(out + n, count - n);
-    position_ += n;
-    return n;
-  }
-  size_t Write(const void* /*buffer*/, size_t /*count*/) override { return 0; }
-  uint64_t Seek(int64_t /*offset*/, TSeekOrigin /*origin*/) override {
-    throw std::runtime_error("rawlog reader: seek not supported");
-  }
-  uint64_t getTotalBytesCount() const override { return source_.getTotalBytesCount(); }
-  uint64_t getPosition() const override { return position_; }
-
-  /// The next `count` bytes (fewer at the end of the stream), left unread.
-  std::string peek(size_t count) {
-    const size_t have = ahead_.size() - ahead_pos_;
-    if (have < count) {
-      std::string more(count - have, '\0');
-      more.resize(source_.Read(more.data(), more.size()));
-      ahead_.append(more);
-    }
-    return ahead_.substr(ahead_pos_, count);
-  }
-
- private:
-  mrpt::io::CStream& source_;
-  std::string ahead_;
-  size_t ahead_pos_ = 0;
-  uint64_t position_ = 0;
-};
-
-/// A size in the log that the log itself does not allow: an error of the frame being read.
-class BadSizeError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-/// Largest image a log may declare before the stereo rig is known, or in logs not written by
-/// TwoCam [px per side]; TwoCam's own depth images have the rig's size.
-constexpr uint32_t kMaxForeignImageSidePx = 16384;
-constexpr uint64_t kMaxForeignImagePixels = uint64_t{1} << 26;  // 64 Mpx, 128 MB of uint16
-
-/// MRPT 2.5's serialisation of CObservation3DRangeScan (version 10) up to the range image size,
-/// as TwoCam's writer produces it (no 3-D points):
-///   0xa2 "mrpt::obs::CObservation3DRangeScan" 0x0a | float maxRange |
-///   0x94 "mrpt::poses::CPose3D" 0x03 12 x double 0x88 | bool hasPoints3D = 0 |
-///   bool hasRangeImage = 1 | float rangeUnits | uint32 rows | uint32 cols | rows x cols x uint16
-/// Returns the (rows, cols) such an object declares, or nullopt if the next object is anything
-/// else (other classes and layouts are left to MRPT).
-std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& stream) {
-  static const std::string kClass = "mrpt::obs::CObservation3DRangeScan";
-  static const std::string kPose = "mrpt::poses::CPose3D";
-  const size_t pose_at = 1 + kClass.size() + 1 + 4;
-  const size_t after_pose = pose_at + 1 + kPose.size() + 1 + 12 * 8 + 1;
-  const size_t size_at = after_pose + 2 + 4;
-  const std::string b = stream.peek(size_at + 8);
-  if (b.size() < size_at + 8) return std::nullopt;
-  const auto byte = [&](size_t i) { return static_cast<uint8_t>(b[i]); };
-  if (byte(0) != (0x80 | kClass.size()) || b.compare(1, kClass.size(), kClass) != 0 ||
-      byte(1 + kClass.size()) != 10) {
-    return std::nullopt;
-  }
-  if (byte(pose_at) != (0x80 | kPose.size()) || b.compare(pose_at + 1, kPose.size(), kPose) != 0 ||
-      byte(after_pose - 1) != 0x88) {
-    return std::nullopt;
-  }
-  if (byte(after_pose) != 0 || byte(after_pose + 1) != 1) return std::nullopt;
-  uint32_t rows = 0;
-  uint32_t cols = 0;
-  std::memcpy(&rows, b.data() + size_at, 4);  // MRPT archives are little-endian
-  std::memcpy(&cols, b.data() + size_at + 4, 4);
-  return std::make_pair(rows, cols);
-}
-
-}  // namespace
 
 struct RawlogReader::Impl {
   mrpt::io::CFileGZInputStream stream;

@@ -1,0 +1,78 @@
+#include "io/log_guards.h"
+
+#include <cstdlib>
+#include <new>
+
+namespace twocam::io::internal {
+
+thread_local size_t g_allocation_cap_bytes = 0;
+
+std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& stream) {
+  static const std::string kClass = "mrpt::obs::CObservation3DRangeScan";
+  static const std::string kPose = "mrpt::poses::CPose3D";
+  const size_t pose_at = 1 + kClass.size() + 1 + 4;
+  const size_t after_pose = pose_at + 1 + kPose.size() + 1 + 12 * 8 + 1;
+  const size_t size_at = after_pose + 2 + 4;
+  const std::string b = stream.peek(size_at + 8);
+  if (b.size() < size_at + 8) return std::nullopt;
+  const auto byte = [&](size_t i) { return static_cast<uint8_t>(b[i]); };
+  if (byte(0) != (0x80 | kClass.size()) || b.compare(1, kClass.size(), kClass) != 0 ||
+      byte(1 + kClass.size()) != 10) {
+    return std::nullopt;
+  }
+  if (byte(pose_at) != (0x80 | kPose.size()) || b.compare(pose_at + 1, kPose.size(), kPose) != 0 ||
+      byte(after_pose - 1) != 0x88) {
+    return std::nullopt;
+  }
+  if (byte(after_pose) != 0 || byte(after_pose + 1) != 1) return std::nullopt;
+  uint32_t rows = 0;
+  uint32_t cols = 0;
+  std::memcpy(&rows, b.data() + size_at, 4);  // MRPT archives are little-endian
+  std::memcpy(&cols, b.data() + size_at + 4, 4);
+  return std::make_pair(rows, cols);
+}
+
+}  // namespace twocam::io::internal
+
+// The global operator new, replaced so that the cap above can refuse a request (the standard
+// allows a program to replace it). Without a cap it behaves as the default.
+void* operator new(std::size_t bytes) {
+  if (twocam::io::internal::g_allocation_cap_bytes != 0 &&
+      bytes > twocam::io::internal::g_allocation_cap_bytes)
+    throw std::bad_alloc();
+  void* p = std::malloc(bytes == 0 ? 1 : bytes);
+  while (p == nullptr) {
+    std::new_handler handler = std::get_new_handler();
+    if (handler == nullptr) throw std::bad_alloc();
+    handler();
+    p = std::malloc(bytes == 0 ? 1 : bytes);
+  }
+  return p;
+}
+void* operator new[](std::size_t bytes) { return operator new(bytes); }
+void* operator new(std::size_t bytes, const std::nothrow_t& /*tag*/) noexcept {
+  try {
+    return operator new(bytes);
+  } catch (const std::bad_alloc&) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t bytes, const std::nothrow_t& tag) noexcept {
+  return operator new(bytes, tag);
+}
+// The aligned forms stay the library's (their own allocate/free pair).
+// Matching deletes (std::free), also needed where a sanitizer supplies its own operators. GCC
+// cannot see that the operator new above allocates with std::malloc.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t /*bytes*/) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t& /*tag*/) noexcept { std::free(p); }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
