@@ -37,6 +37,7 @@
 #include <utility>
 
 #include "common/options_check.h"
+#include "common/quiet_stderr.h"
 #include "io/log_guards.h"
 
 namespace twocam::io {
@@ -117,23 +118,12 @@ Status writePng(const ImageU8& img, const std::string& path) {
 /// ..." there for a corrupt file before OpenCV returns an empty image, and TwoCam reports the
 /// failure in its own words instead. Process-wide while it runs (single-threaded callers).
 cv::Mat imreadQuietly(const std::string& path, int flags) {
-  std::fflush(stderr);
-  const int saved = ::dup(2);
-  const int null_fd = ::open("/dev/null", O_WRONLY);
-  if (saved >= 0 && null_fd >= 0) ::dup2(null_fd, 2);
-  cv::Mat img;
+  const QuietStderr quiet;
   try {
-    img = cv::imread(path, flags);
+    return cv::imread(path, flags);
   } catch (const cv::Exception&) {
-    img = cv::Mat();
+    return cv::Mat();
   }
-  std::fflush(stderr);
-  if (saved >= 0) {
-    ::dup2(saved, 2);
-    ::close(saved);
-  }
-  if (null_fd >= 0) ::close(null_fd);
-  return img;
 }
 
 std::string frameName(const char* prefix, int index) {

@@ -12,6 +12,8 @@
 #include <sstream>
 #include <string>
 
+#include "common/quiet_stderr.h"
+
 namespace twocam::sim {
 
 namespace {
@@ -20,23 +22,12 @@ namespace {
 /// ..." there for a corrupt file before OpenCV returns an empty image, and TwoCam reports the
 /// failure in its own words instead. Process-wide while it runs (single-threaded callers).
 cv::Mat imreadQuietly(const std::string& path, int flags) {
-  std::fflush(stderr);
-  const int saved = ::dup(2);
-  const int null_fd = ::open("/dev/null", O_WRONLY);
-  if (saved >= 0 && null_fd >= 0) ::dup2(null_fd, 2);
-  cv::Mat img;
+  const QuietStderr quiet;
   try {
-    img = cv::imread(path, flags);
+    return cv::imread(path, flags);
   } catch (const cv::Exception&) {
-    img = cv::Mat();
+    return cv::Mat();
   }
-  std::fflush(stderr);
-  if (saved >= 0) {
-    ::dup2(saved, 2);
-    ::close(saved);
-  }
-  if (null_fd >= 0) ::close(null_fd);
-  return img;
 }
 
 /// Blobs: coarse random grid cell as a fraction of scale_m. Cubic interpolation of i.i.d.
