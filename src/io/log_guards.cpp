@@ -5,7 +5,16 @@
 
 namespace twocam::io::internal {
 
-thread_local size_t g_allocation_cap_bytes = 0;
+namespace {
+thread_local size_t t_allocation_cap_bytes = 0;  // 0 = no limit
+}  // namespace
+
+size_t allocationCapBytes() { return t_allocation_cap_bytes; }
+
+AllocationCap::AllocationCap(size_t bytes) : saved_(t_allocation_cap_bytes) {
+  t_allocation_cap_bytes = bytes;
+}
+AllocationCap::~AllocationCap() { t_allocation_cap_bytes = saved_; }
 
 std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& stream) {
   static const std::string kClass = "mrpt::obs::CObservation3DRangeScan";
@@ -37,9 +46,8 @@ std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& 
 // The global operator new, replaced so that the cap above can refuse a request (the standard
 // allows a program to replace it). Without a cap it behaves as the default.
 void* operator new(std::size_t bytes) {
-  if (twocam::io::internal::g_allocation_cap_bytes != 0 &&
-      bytes > twocam::io::internal::g_allocation_cap_bytes)
-    throw std::bad_alloc();
+  const size_t cap = twocam::io::internal::allocationCapBytes();
+  if (cap != 0 && bytes > cap) throw std::bad_alloc();
   void* p = std::malloc(bytes == 0 ? 1 : bytes);
   while (p == nullptr) {
     std::new_handler handler = std::get_new_handler();

@@ -21,16 +21,17 @@ namespace twocam::io::internal {
 /// reads a length (string, vector, image) from the archive and allocates by it before reading
 /// the data, so one changed byte asked for gigabytes (zero-filled: all memory). 256 MiB is far
 /// above any real observation (a 4096 x 3072 colour image is 36 MiB).
-extern thread_local size_t g_allocation_cap_bytes;
 constexpr size_t kMaxObjectAllocationBytes = size_t{256} << 20;
+/// The calling thread's cap on one allocation, 0 = no limit.
+size_t allocationCapBytes();
 
-/// Sets the cap for its lifetime.
+/// Sets the calling thread's cap for its lifetime. The thread_local behind it lives in
+/// log_guards.cpp only: an `extern thread_local` read through GCC's TLS wrapper from another
+/// library was reported by UBSan as a store to a null pointer.
 class AllocationCap {
  public:
-  explicit AllocationCap(size_t bytes) : saved_(g_allocation_cap_bytes) {
-    g_allocation_cap_bytes = bytes;
-  }
-  ~AllocationCap() { g_allocation_cap_bytes = saved_; }
+  explicit AllocationCap(size_t bytes);
+  ~AllocationCap();
   AllocationCap(const AllocationCap&) = delete;
   AllocationCap& operator=(const AllocationCap&) = delete;
 
