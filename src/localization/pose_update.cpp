@@ -1,0 +1,209 @@
+#include "localization/pose_update.h"
+
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace twocam::localization {
+namespace {
+
+double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+Eigen::Matrix3d planarRotation(double yaw) {
+  Eigen::Matrix3d G = Eigen::Matrix3d::Identity();
+  G.topLeftCorner<2, 2>() = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+  return G;
+}
+
+/// Applies a world-axes planar perturbation (dx, dy, dyaw) to a pose: the body turns about its
+/// own position.
+Eigen::Isometry3d perturb(const Eigen::Isometry3d& T, const Eigen::Vector3d& delta) {
+  Eigen::Isometry3d out = T;
+  out.linear() = Eigen::AngleAxisd(delta.z(), Eigen::Vector3d::UnitZ()).matrix() * T.linear();
+  out.translation() += Eigen::Vector3d(delta.x(), delta.y(), 0.0);
+  return out;
+}
+
+bool residualAt(const StereoResidual& f, const Eigen::Isometry3d& T, Eigen::Vector3d* r) {
+  const Eigen::Quaterniond q(T.linear());
+  const Eigen::Vector3d t = T.translation();
+  return f(q.coeffs().data(), t.data(), r->data());
+}
+
+}  // namespace
+
+Pose2 toPose2(const Eigen::Isometry3d& T_w_b) {
+  const Eigen::Vector3d x_axis = T_w_b.linear().col(0);
+  return {T_w_b.translation().x(), T_w_b.translation().y(), std::atan2(x_axis.y(), x_axis.x())};
+}
+
+Pose2 odometryIncrement(const Pose2& from, const Pose2& to) {
+  const double c = std::cos(from.yaw_rad);
+  const double s = std::sin(from.yaw_rad);
+  const double dx = to.x_m - from.x_m;
+  const double dy = to.y_m - from.y_m;
+  return {c * dx + s * dy, -s * dx + c * dy, wrapAngle(to.yaw_rad - from.yaw_rad)};
+}
+
+Eigen::Matrix3d odometryCovariance(const OdometryNoise& noise, double path_m, double turn_rad) {
+  const OdometryErrorSigma e = accumulatedOdometrySigma(noise, path_m, turn_rad);
+  return Eigen::Vector3d(e.trans_m * e.trans_m, e.trans_m * e.trans_m, e.yaw_rad * e.yaw_rad)
+      .asDiagonal();
+}
+
+PoseWithCovariance predictPose(const PoseWithCovariance& previous,
+                               const Pose2& increment,
+                               const OdometryNoise& noise) {
+  PoseWithCovariance out;
+  out.T_w_b = previous.T_w_b * toIsometry(increment);
+  const double yaw = toPose2(previous.T_w_b).yaw_rad;
+  const Eigen::Vector2d d_w =
+      Eigen::Rotation2Dd(yaw) * Eigen::Vector2d(increment.x_m, increment.y_m);
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  F(0, 2) = -d_w.y();
+  F(1, 2) = d_w.x();
+  const Eigen::Matrix3d G = planarRotation(yaw);
+  const Eigen::Matrix3d Q = odometryCovariance(
+      noise, std::hypot(increment.x_m, increment.y_m), std::abs(increment.yaw_rad));
+  out.cov = F * previous.cov * F.transpose() + G * Q * G.transpose();
+  return out;
+}
+
+StereoResidual::StereoResidual(const StereoRig& rig,
+                               const LandmarkObservation& obs,
+                               const PoseUpdateOptions& o)
+    : p_w(obs.p_w),
+      fx(rig.fx_px),
+      fy(rig.fy_px),
+      cx(rig.cx_px),
+      cy(rig.cy_px),
+      fb(rig.fx_px * rig.baseline_m),
+      u(obs.u_px),
+      v(obs.v_px),
+      d(obs.d_px),
+      inv_sigma_px(1.0 / o.pixel_sigma_px),
+      inv_sigma_d(1.0 / o.disparity_sigma_px) {
+  const Eigen::Isometry3d T_cl_b = rig.T_b_cl.inverse();
+  R_cl_b = T_cl_b.linear();
+  t_cl_b = T_cl_b.translation();
+}
+
+PriorResidual::PriorResidual(const PoseWithCovariance& prediction, const PoseUpdateOptions& o)
+    : q_p(prediction.T_w_b.linear()),
+      t_p(prediction.T_w_b.translation()),
+      inv_sigma_m(1.0 / o.planar_sigma_m),
+      inv_sigma_rad(1.0 / o.planar_sigma_rad) {
+  // A covariance that is (near) singular, e.g. zero at the first frame, is floored so that its
+  // information stays finite: 1 mm and 1 mrad.
+  Eigen::Matrix3d cov = prediction.cov;
+  cov += Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
+  const Eigen::Matrix3d info = cov.inverse();
+  sqrt_info = info.llt().matrixU();
+}
+
+PoseUpdateResult updatePose(const StereoRig& rig,
+                            const PoseWithCovariance& prediction,
+                            const std::vector<LandmarkObservation>& observations,
+                            const PoseUpdateOptions& options) {
+  PoseUpdateResult out;
+  out.estimate = prediction;
+  out.inlier.assign(observations.size(), 0);
+  std::vector<StereoResidual> residuals;
+  std::vector<size_t> used;
+  residuals.reserve(observations.size());
+  for (size_t i = 0; i < observations.size(); ++i) {
+    StereoResidual f(rig, observations[i], options);
+    Eigen::Vector3d r;
+    if (!std::isfinite(observations[i].p_w.squaredNorm()) || !(observations[i].d_px > 0.0) ||
+        !residualAt(f, prediction.T_w_b, &r)) {
+      continue;
+    }
+    residuals.push_back(f);
+    used.push_back(i);
+  }
+  out.observations = static_cast<int>(residuals.size());
+  if (out.observations < options.min_landmarks) return out;
+
+  Eigen::Quaterniond q(prediction.T_w_b.linear());
+  q.normalize();
+  Eigen::Vector3d t = prediction.T_w_b.translation();
+  ceres::Problem problem;
+  problem.AddParameterBlock(q.coeffs().data(), 4, new ceres::EigenQuaternionManifold);
+  problem.AddParameterBlock(t.data(), 3);
+  problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 6, 4, 3>(
+                               new PriorResidual(prediction, options)),
+                           nullptr,
+                           q.coeffs().data(),
+                           t.data());
+  for (const StereoResidual& f : residuals) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<StereoResidual, 3, 4, 3>(new StereoResidual(f)),
+        new ceres::HuberLoss(options.huber_sigma),
+        q.coeffs().data(),
+        t.data());
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = options.max_iterations;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (!summary.IsSolutionUsable() || !q.coeffs().allFinite() || !t.allFinite()) return out;
+
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = q.normalized().toRotationMatrix();
+  T.translation() = t;
+  // Inliers, and their information on (x, y, yaw) by central differences.
+  constexpr double kEps = 1e-6;
+  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+  int inliers = 0;
+  for (size_t k = 0; k < residuals.size(); ++k) {
+    Eigen::Vector3d r;
+    if (!residualAt(residuals[k], T, &r) || r.squaredNorm() > options.inlier_chi2) continue;
+    Eigen::Matrix3d J;
+    bool ok = true;
+    for (int c = 0; c < 3 && ok; ++c) {
+      Eigen::Vector3d delta = Eigen::Vector3d::Zero();
+      delta[c] = kEps;
+      Eigen::Vector3d rp, rm;
+      ok = residualAt(residuals[k], perturb(T, delta), &rp) &&
+           residualAt(residuals[k], perturb(T, -delta), &rm);
+      J.col(c) = (rp - rm) / (2.0 * kEps);
+    }
+    if (!ok) continue;
+    info += J.transpose() * J;
+    out.inlier[used[k]] = 1;
+    ++inliers;
+  }
+  out.inliers = inliers;
+  if (inliers < options.min_landmarks) {
+    out.inlier.assign(observations.size(), 0);
+    return out;
+  }
+  Eigen::Matrix3d prior_cov = prediction.cov;
+  prior_cov += Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
+  out.estimate.T_w_b = T;
+  out.estimate.cov = (prior_cov.inverse() + info).inverse();
+  out.visual = true;
+  return out;
+}
+
+double slipChi2(const PoseWithCovariance& start,
+                const PoseWithCovariance& end,
+                const Pose2& odometry_motion,
+                const Eigen::Matrix3d& odometry_cov) {
+  const Pose2 visual = odometryIncrement(toPose2(start.T_w_b), toPose2(end.T_w_b));
+  const Eigen::Vector3d e(visual.x_m - odometry_motion.x_m,
+                          visual.y_m - odometry_motion.y_m,
+                          wrapAngle(visual.yaw_rad - odometry_motion.yaw_rad));
+  const Eigen::Matrix3d R = planarRotation(toPose2(start.T_w_b).yaw_rad).transpose();
+  Eigen::Matrix3d S = odometry_cov + R * (start.cov + end.cov) * R.transpose();
+  S += Eigen::Vector3d(1e-8, 1e-8, 1e-8).asDiagonal();
+  return e.dot(S.ldlt().solve(e));
+}
+
+}  // namespace twocam::localization

@@ -1,0 +1,178 @@
+#include "localization/pose_update.h"
+
+#include <ceres/ceres.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "support/synthetic_stream.h"
+
+namespace twocam::localization {
+namespace {
+
+using test::SyntheticStream;
+
+/// Tolerances, named.
+// Auto-diff against central differences, relative to max(1, |J|): the differences' rounding
+// error on residuals of hundreds of pixels is about 1e-6; a wrong derivative is off by O(1).
+constexpr double kJacobianTol = 1e-4;
+constexpr double kPositionTolM = 0.01;  // pose recovered from 0.3 px noise and 10 % outliers
+constexpr double kYawTolRad = 0.2 * M_PI / 180.0;
+constexpr uint64_t kSeed = 20261203;
+
+Eigen::Isometry3d pose(double x, double y, double yaw) { return toIsometry(Pose2{x, y, yaw}); }
+
+/// Landmarks spread in front of the robot at `T_w_b`, observed exactly (plus noise), and a
+/// share of outliers at random pixels.
+std::vector<LandmarkObservation> observe(const StereoRig& rig,
+                                         const Eigen::Isometry3d& T_w_b,
+                                         int n,
+                                         double pixel_noise,
+                                         double outlier_share,
+                                         std::mt19937_64* rng) {
+  std::uniform_real_distribution<double> x(-2.0, 2.0), y(-1.0, 1.0), z(1.5, 6.0), unit(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, pixel_noise);
+  const Eigen::Isometry3d T_w_cl = T_w_b * rig.T_b_cl;
+  std::vector<LandmarkObservation> out;
+  while (static_cast<int>(out.size()) < n) {
+    const Eigen::Vector3d p_cl(x(*rng), y(*rng), z(*rng));
+    LandmarkObservation o;
+    o.id = out.size() + 1;
+    o.p_w = T_w_cl * p_cl;
+    const double inv_z = 1.0 / p_cl.z();
+    o.u_px = rig.cx_px + rig.fx_px * p_cl.x() * inv_z + noise(*rng);
+    o.v_px = rig.cy_px + rig.fy_px * p_cl.y() * inv_z + noise(*rng);
+    o.d_px = rig.fx_px * rig.baseline_m * inv_z + noise(*rng);
+    if (o.u_px < 0 || o.u_px >= rig.width_px || o.v_px < 0 || o.v_px >= rig.height_px) continue;
+    if (unit(*rng) < outlier_share) {
+      o.u_px = unit(*rng) * rig.width_px;
+      o.v_px = unit(*rng) * rig.height_px;
+      o.d_px = 2.0 + unit(*rng) * 40.0;
+    }
+    out.push_back(o);
+  }
+  return out;
+}
+
+template <typename Functor, int kResiduals>
+void expectJacobiansMatch(const Functor& f, const Eigen::Isometry3d& T) {
+  Eigen::Quaterniond q(T.linear());
+  Eigen::Vector3d t = T.translation();
+  double* params[] = {q.coeffs().data(), t.data()};
+  ceres::AutoDiffCostFunction<Functor, kResiduals, 4, 3> autodiff(new Functor(f));
+  ceres::NumericDiffCostFunction<Functor, ceres::CENTRAL, kResiduals, 4, 3> numeric(new Functor(f));
+  double r_a[kResiduals], r_n[kResiduals];
+  double jq_a[kResiduals * 4], jt_a[kResiduals * 3], jq_n[kResiduals * 4], jt_n[kResiduals * 3];
+  double* j_a[] = {jq_a, jt_a};
+  double* j_n[] = {jq_n, jt_n};
+  ASSERT_TRUE(autodiff.Evaluate(params, r_a, j_a));
+  ASSERT_TRUE(numeric.Evaluate(params, r_n, j_n));
+  for (int i = 0; i < kResiduals; ++i) EXPECT_NEAR(r_a[i], r_n[i], kJacobianTol);
+  for (int i = 0; i < kResiduals * 4; ++i)
+    EXPECT_NEAR(jq_a[i], jq_n[i], kJacobianTol * std::max(1.0, std::abs(jq_a[i]))) << i;
+  for (int i = 0; i < kResiduals * 3; ++i)
+    EXPECT_NEAR(jt_a[i], jt_n[i], kJacobianTol * std::max(1.0, std::abs(jt_a[i]))) << i;
+}
+
+TEST(PoseUpdate, AutoDiffJacobiansMatchNumericOnes) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  std::mt19937_64 rng(kSeed);
+  const Eigen::Isometry3d T_true = pose(1.0, 0.5, 0.3);
+  const auto obs = observe(rig, T_true, 5, 0.0, 0.0, &rng);
+  PoseUpdateOptions o;
+  Eigen::Isometry3d T = pose(1.03, 0.48, 0.32);
+  T.linear() = T.linear() * Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX()).matrix();
+  for (const LandmarkObservation& ob : obs)
+    expectJacobiansMatch<StereoResidual, 3>(StereoResidual(rig, ob, o), T);
+  PoseWithCovariance prediction;
+  prediction.T_w_b = T_true;
+  prediction.cov = Eigen::Vector3d(1e-4, 2e-4, 1e-5).asDiagonal();
+  expectJacobiansMatch<PriorResidual, 6>(PriorResidual(prediction, o), T);
+}
+
+TEST(PoseUpdate, RecoversTheTruePoseFromAWrongPredictionDespiteOutliers) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  std::mt19937_64 rng(kSeed + 1);
+  const Eigen::Isometry3d T_true = pose(2.0, -1.0, 0.7);
+  const auto obs = observe(rig, T_true, 80, 0.3, 0.1, &rng);
+  PoseWithCovariance prediction;
+  // A slip: 6 cm and 2 degrees off, far outside the odometry covariance (5 mm, 0.3 degree).
+  prediction.T_w_b = pose(2.05, -0.97, 0.7 + 2.0 * M_PI / 180.0);
+  prediction.cov = Eigen::Vector3d(2.5e-5, 2.5e-5, 3e-5).asDiagonal();
+  const PoseUpdateResult r = updatePose(rig, prediction, obs, PoseUpdateOptions{});
+  ASSERT_TRUE(r.visual);
+  const Pose2 est = toPose2(r.estimate.T_w_b);
+  EXPECT_NEAR(est.x_m, 2.0, kPositionTolM);
+  EXPECT_NEAR(est.y_m, -1.0, kPositionTolM);
+  EXPECT_NEAR(est.yaw_rad, 0.7, kYawTolRad);
+  EXPECT_GE(r.inliers, 60);  // 72 or so of the 80 are real; outliers are not counted
+  EXPECT_LE(r.inliers, 80);
+  // The visual covariance is far tighter than the prior's.
+  EXPECT_LT(r.estimate.cov(0, 0), 0.5 * prediction.cov(0, 0));
+  // The slip shows in the window test against odometry that reported the wrong motion.
+  PoseWithCovariance start;
+  start.T_w_b = pose(1.9, -1.0, 0.7);
+  const Pose2 odo = odometryIncrement(toPose2(start.T_w_b), toPose2(prediction.T_w_b));
+  const Eigen::Matrix3d odo_cov = odometryCovariance(OdometryNoise{}, 0.15, 0.035);
+  EXPECT_GT(slipChi2(start, r.estimate, odo, odo_cov), SlipTestOptions{}.chi2);
+}
+
+TEST(PoseUpdate, TooFewLandmarksKeepThePrediction) {
+  const StereoRig rig = SyntheticStream::defaultRig();
+  std::mt19937_64 rng(kSeed + 2);
+  const Eigen::Isometry3d T_true = pose(0.0, 0.0, 0.0);
+  const auto obs = observe(rig, T_true, 4, 0.3, 0.0, &rng);
+  PoseWithCovariance prediction;
+  prediction.T_w_b = pose(0.02, 0.0, 0.0);
+  prediction.cov = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
+  const PoseUpdateResult r = updatePose(rig, prediction, obs, PoseUpdateOptions{});
+  EXPECT_FALSE(r.visual);
+  EXPECT_EQ(r.observations, 4);
+  EXPECT_TRUE(r.estimate.T_w_b.isApprox(prediction.T_w_b));
+  EXPECT_TRUE(r.estimate.cov.isApprox(prediction.cov));
+}
+
+TEST(PoseUpdate, OdometryPredictionComposesAndItsCovarianceGrows) {
+  PoseWithCovariance p;
+  p.T_w_b = pose(1.0, 0.0, M_PI / 2.0);
+  const OdometryNoise noise;
+  const PoseWithCovariance q = predictPose(p, Pose2{0.5, 0.0, 0.1}, noise);
+  const Pose2 e = toPose2(q.T_w_b);
+  EXPECT_NEAR(e.x_m, 1.0, 1e-12);  // driving 0.5 m along the body x axis, which points along +y
+  EXPECT_NEAR(e.y_m, 0.5, 1e-12);
+  EXPECT_NEAR(e.yaw_rad, M_PI / 2.0 + 0.1, 1e-12);
+  const Eigen::Matrix3d Q = odometryCovariance(noise, 0.5, 0.1);
+  EXPECT_NEAR(q.cov(0, 0), Q(1, 1), 1e-15);  // the body's y variance is the world's x variance
+  EXPECT_NEAR(q.cov(2, 2), Q(2, 2), 1e-15);
+  // A heading error from the first step moves the second step sideways: x variance grows.
+  const PoseWithCovariance r = predictPose(q, Pose2{0.5, 0.0, 0.0}, noise);
+  EXPECT_GT(r.cov(0, 0), q.cov(0, 0) + 0.25 * q.cov(2, 2) * 0.99);
+}
+
+TEST(PoseUpdate, SlipTestQuietForConsistentMotion) {
+  PoseWithCovariance start, end;
+  start.T_w_b = pose(0.0, 0.0, 0.2);
+  end.T_w_b = start.T_w_b * pose(0.08, 0.001, 0.01);
+  start.cov = end.cov = Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
+  const Eigen::Matrix3d odo_cov = odometryCovariance(OdometryNoise{}, 0.08, 0.01);
+  EXPECT_LT(slipChi2(start, end, Pose2{0.08, 0.0, 0.01}, odo_cov), 3.0);
+  // A 4 cm wheel spin in the same window is flagged.
+  EXPECT_GT(slipChi2(start, end, Pose2{0.12, 0.0, 0.01}, odo_cov), SlipTestOptions{}.chi2);
+}
+
+TEST(PoseUpdateOptions, RangesAreChecked) {
+  PoseUpdateOptions o;
+  EXPECT_TRUE(o.validate("localization.").isOk());
+  o.pixel_sigma_px = std::nan("");
+  const Status s = o.validate("localization.");
+  ASSERT_FALSE(s.isOk());
+  EXPECT_NE(s.message().find("localization.pixel_sigma_px"), std::string::npos);
+  SlipTestOptions t;
+  t.window_frames = 0;
+  EXPECT_FALSE(t.validate().isOk());
+}
+
+}  // namespace
+}  // namespace twocam::localization
