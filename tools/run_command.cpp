@@ -41,6 +41,10 @@ int runRun(const RunArgs& args) {
     if (Status s = frontend::parseHypothesisSource(*args.source, &config.frontend.source); !s)
       return fail(s.message());
   }
+  if (args.localization) {
+    if (Status s = localization::parseMode(*args.localization, &config.localization.mode); !s)
+      return fail("--localization " + *args.localization + ": " + s.message());
+  }
   std::unique_ptr<io::RawlogReader> reader;
   if (Status s = io::RawlogReader::open(args.log_path, &reader); !s) return fail(s.message());
   if (Status s = pipeline::clampToRig(reader->rig(), &config); !s) return fail(s.message());

@@ -14,6 +14,8 @@ struct RunArgs {
   /// Override the config's landmarks.policy / frontend.source when given.
   std::optional<std::string> policy;
   std::optional<std::string> source;
+  /// Override the config's localization.mode: odometry | pnp | fused.
+  std::optional<std::string> localization;
   /// World file for the map evaluation; default: "<log stem>.world.yaml" beside the log when it
   /// exists (written by `twocam simulate`).
   std::optional<std::string> world_path;

@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
 
   twocam::tools::RunArgs run;
   int run_frames = 0, run_sample = 0;
-  std::string run_policy, run_source, run_config, run_world;
+  std::string run_policy, run_source, run_config, run_world, run_localization;
   auto* run_cmd =
       app.add_subcommand("run",
                          "Run frontend, landmark database and occupancy map over a log; write "
@@ -114,6 +114,11 @@ int main(int argc, char** argv) {
       "--source",
       run_source,
       "Hypothesis source, overrides the config: sad (default) or pairing (Paper A)");
+  auto* run_localization_opt = run_cmd->add_option(
+      "--localization",
+      run_localization,
+      "Where the poses come from, overrides the config: odometry (default), pnp (OpenCV "
+      "solvePnPRansac on the confirmed landmarks) or fused (odometry corrected by them)");
   auto* run_world_opt =
       run_cmd->add_option("--world",
                           run_world,
@@ -168,6 +173,7 @@ int main(int argc, char** argv) {
       if (run_config_opt->count() > 0) run.config_path = run_config;
       if (run_policy_opt->count() > 0) run.policy = run_policy;
       if (run_source_opt->count() > 0) run.source = run_source;
+      if (run_localization_opt->count() > 0) run.localization = run_localization;
       if (run_world_opt->count() > 0) run.world_path = run_world;
       return twocam::tools::runRun(run);
     }

@@ -58,7 +58,7 @@ std::string timingsCsv(const std::vector<pipeline::FrameRecord>& records) {
 
 /// Per-stage wall times of the processed frames [ms].
 struct StageSamples {
-  std::vector<double> frontend, landmarks, mapping, total;
+  std::vector<double> frontend, landmarks, localization, mapping, total;
 };
 
 StageSamples stageSamples(const std::vector<pipeline::FrameRecord>& records) {
@@ -66,6 +66,7 @@ StageSamples stageSamples(const std::vector<pipeline::FrameRecord>& records) {
   for (const pipeline::FrameRecord& r : records) {
     s.frontend.push_back(r.times.frontend_ms);
     s.landmarks.push_back(r.times.landmarks_ms);
+    s.localization.push_back(r.times.localization_ms);
     s.mapping.push_back(r.times.mapping_ms);
     s.total.push_back(r.times.totalMs());
   }
@@ -74,10 +75,12 @@ StageSamples stageSamples(const std::vector<pipeline::FrameRecord>& records) {
 
 Json timingJson(const StageSamples& s, double wall_ms) {
   Json t = Json::object();
-  const std::pair<const char*, const std::vector<double>*> stages[] = {{"frontend", &s.frontend},
-                                                                       {"landmarks", &s.landmarks},
-                                                                       {"mapping", &s.mapping},
-                                                                       {"total", &s.total}};
+  const std::pair<const char*, const std::vector<double>*> stages[] = {
+      {"frontend", &s.frontend},
+      {"landmarks", &s.landmarks},
+      {"localization", &s.localization},
+      {"mapping", &s.mapping},
+      {"total", &s.total}};
   for (const auto& [name, samples] : stages) {
     t[std::string(name) + "_median"] = numberOrNull(median(*samples));
     t[std::string(name) + "_p95"] = numberOrNull(quantile(*samples, 0.95));
@@ -85,6 +88,66 @@ Json timingJson(const StageSamples& s, double wall_ms) {
   return {{"timing_ms", t},
           {"frames", static_cast<int64_t>(s.total.size())},
           {"wall_s", wall_ms * 1e-3}};
+}
+
+/// Position distance at the last common pose [m] (NaN when a track is empty).
+double finalError(const std::vector<io::TimedPose>& est, const std::vector<io::TimedPose>& gt) {
+  const size_t n = std::min(est.size(), gt.size());
+  if (n == 0) return std::nan("");
+  return (est[n - 1].T_w_b.translation() - gt[n - 1].T_w_b.translation()).norm();
+}
+
+/// Slip detection against the world's slip events (docs/conventions.md, "Slips"): an event
+/// belongs to the first frame at or after its time; it is detected when a flag lies within 2
+/// frames; a flag with no event within 2 frames is a false alarm. Over the first `frames`
+/// processed frames (those with ground truth).
+Json slipsJson(const std::vector<sim::SlipEvent>& events,
+               double frame_rate_hz,
+               const pipeline::RunSummary& s,
+               size_t frames) {
+  constexpr int kWithinFrames = 2;
+  const int32_t last_frame = frames == 0 ? -1 : s.records[frames - 1].frame;
+  std::vector<int32_t> event_frames;
+  std::vector<uint8_t> significant;
+  for (const sim::SlipEvent& e : events) {
+    const auto f = static_cast<int32_t>(std::ceil(e.time_s * frame_rate_hz - 1e-9));
+    if (f < 0 || f > last_frame) continue;
+    event_frames.push_back(f);
+    significant.push_back(std::hypot(e.dx_m, e.dy_m) >= 0.03 ||
+                          std::abs(e.dyaw_rad) >= M_PI / 180.0);
+  }
+  std::vector<int32_t> flags;
+  for (int32_t f : s.slip_frames) {
+    if (f <= last_frame) flags.push_back(f);
+  }
+  const auto near = [&](int32_t a, int32_t b) { return std::abs(a - b) <= kWithinFrames; };
+  int detected = 0, detected_significant = 0, n_significant = 0;
+  for (size_t i = 0; i < event_frames.size(); ++i) {
+    bool hit = false;
+    for (int32_t f : flags) hit = hit || near(f, event_frames[i]);
+    detected += hit;
+    n_significant += significant[i];
+    detected_significant += hit && significant[i];
+  }
+  int false_alarms = 0;
+  for (int32_t f : flags) {
+    bool any = false;
+    for (int32_t e : event_frames) any = any || near(f, e);
+    false_alarms += !any;
+  }
+  Json flagged = Json::array();
+  for (int32_t f : flags) flagged.push_back(f);
+  return {{"true", static_cast<int64_t>(event_frames.size())},
+          {"detected", detected},
+          {"false_alarms", false_alarms},
+          {"recall",
+           n_significant == 0
+               ? Json(nullptr)
+               : numberOrNull(static_cast<double>(detected_significant) / n_significant)},
+          {"significant", n_significant},
+          {"false_alarms_per_1000_frames",
+           numberOrNull(frames == 0 ? std::nan("") : 1000.0 * false_alarms / frames)},
+          {"flagged_frames", flagged}};
 }
 
 }  // namespace
@@ -131,7 +194,7 @@ Status RunEvaluator::addToEvaluationMap(const pipeline::RunFrame& f,
                                         const Eigen::Isometry3d& T_w_b_true) {
   // Each landmark is placed with the correction (true pose x odometry pose^-1) of its anchor
   // frame, where its position was measured; the ray starts at the true camera.
-  const Eigen::Isometry3d T_true_odom = T_w_b_true * toIsometry(f.log.odometry->pose).inverse();
+  const Eigen::Isometry3d T_true_odom = T_w_b_true * toIsometry(f.output.pose).inverse();
   const auto index = static_cast<size_t>(f.log.index);
   if (index >= T_true_odom_by_frame_.size()) {
     T_true_odom_by_frame_.resize(index + 1, Eigen::Isometry3d::Identity());
@@ -238,6 +301,9 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   const landmarks::LandmarkDatabase& db = pipe.database();
   const double resolution_m = config_.mapping.resolution_m;
   const bool has_gt = has_gt_ && s.odometry_mode && !gt_track_.empty();
+  const bool localizing =
+      s.odometry_mode && config_.localization.mode != localization::Mode::kOdometry;
+  const std::string mode = localization::modeName(config_.localization.mode);
   *out = RunOutputs{};
 
   // ---- map: the odometry map and, with a world and ground truth, the evaluation map ----------
@@ -299,12 +365,44 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   if (has_gt) {
     double ate = 0.0;
     if (Status st = ateRmseM(s.odom_track, gt_track_, &ate); !st) return st;
-    m["trajectory"] = {{"ate_rmse_m", {{"odometry", numberOrNull(ate)}}}};
+    Json ate_json = {{"odometry", numberOrNull(ate)}};
+    Json final_json = {{"odometry", numberOrNull(finalError(s.odom_track, gt_track_))}};
+    if (localizing) {
+      double ate_est = 0.0;
+      if (Status st = ateRmseM(s.pose_track, gt_track_, &ate_est); !st) return st;
+      ate_json[mode] = numberOrNull(ate_est);
+      final_json[mode] = numberOrNull(finalError(s.pose_track, gt_track_));
+    }
+    m["trajectory"] = {{"ate_rmse_m", ate_json}, {"final_error_m", final_json}};
+    if (localizing && inputs_.world) {
+      m["slips"] = slipsJson(inputs_.world->odometry_noise.slips,
+                             inputs_.world->robot.frame_rate_hz,
+                             s,
+                             gt_track_.size());
+    }
     lm = landmarks_.finish(db);
     const Json nested = toJson(*lm);
     for (auto it = nested.begin(); it != nested.end(); ++it) m[it.key()] = *it;
   } else {
     m["landmarks"] = {{"confirmed", db.numConfirmed()}, {"candidates", db.numCandidates()}};
+  }
+
+  if (localizing) {
+    int visual = 0;
+    for (uint8_t v : s.visual) visual += v;
+    std::vector<double> used;
+    for (size_t i = 0; i < s.landmarks_used.size(); ++i) {
+      if (s.visual[i]) used.push_back(s.landmarks_used[i]);
+    }
+    m["localization"] = {
+        {"mode", mode},
+        {"visual_fraction",
+         numberOrNull(s.visual.empty() ? std::nan("")
+                                       : static_cast<double>(visual) / s.visual.size())},
+        {"landmarks_used_median", used.empty() ? Json(nullptr) : numberOrNull(median(used))},
+        {"slips_flagged", static_cast<int64_t>(s.slip_frames.size())}};
+  } else {
+    m["localization"] = {{"mode", mode}};
   }
 
   // ---- timings -------------------------------------------------------------------------------
@@ -323,6 +421,12 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
         "trajectory_odom.tum",
         io::toTum(s.odom_track, "wheel odometry: body pose in the odometry world frame"));
     files.emplace_back("map_voxels.csv", voxelsCsv(voxels));
+    if (localizing) {
+      files.emplace_back("trajectory_est.tum",
+                         io::toTum(s.pose_track,
+                                   "localization " + mode +
+                                       ": body pose in the robot's world frame (planar part)"));
+    }
   }
   if (has_gt) {
     files.emplace_back("trajectory_gt.tum",

@@ -148,6 +148,8 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   hypothesis_density_ = static_cast<double>(hyps.hypotheses.size()) /
                         (static_cast<double>(rig_.width_px) * rig_.height_px * d_range);
 
+  frame_obs_.clear();
+  confirmed_obs_.clear();
   predictAll(T_cl_w_, hyps);
   associate(hyps, report);
   frame_hyps_ = &hyps;
@@ -155,6 +157,30 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   probe_requests_built_ = false;
   probe_pixels_.clear();
   probe_prediction_.clear();
+  return Status::ok();
+}
+
+Status LandmarkDatabase::correctFramePose(const Pose2& pose) {
+  TWOCAM_CHECK(frame_hyps_ != nullptr) << "correctFramePose outside a frame";
+  if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.yaw_rad)) {
+    return Status::error("frame " + std::to_string(frame_) + ": corrected pose is not finite");
+  }
+  pose_ = pose;
+  T_w_cl_ = cameraPoseInWorld(pose, T_b_cl_);
+  T_cl_w_ = T_w_cl_.inverse();
+  pose_ring_[static_cast<uint32_t>(frame_) % kPoseRingSize].T_w_cl = T_w_cl_;
+  frame_ctx_.odom_pose = pose;
+  frame_ctx_.T_w_cl = T_w_cl_;
+  frame_ctx_.T_cl_w = T_cl_w_;
+  for (const FrameObservation& o : frame_obs_) {
+    Landmark& l = slots_[o.slot];
+    if (!l.observations.empty() && l.observations.back().frame == frame_)
+      l.observations.back().odom_pose = pose;
+    if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(o.u_px, o.v_px), o.d_px)) {
+      l.p_w_last = T_w_cl_ * *p_cl;
+      hot_[o.slot].p_w_last = l.p_w_last;
+    }
+  }
   return Status::ok();
 }
 
@@ -442,6 +468,11 @@ bool LandmarkDatabase::applyObservation(uint32_t slot,
   l.path_at_last_seen_m = path_m_;
   l.turn_at_last_seen_rad = turn_rad_;
   l.consecutive_misses = 0;
+  frame_obs_.push_back({slot, static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px});
+  if (l.state == LandmarkState::kConfirmed) {
+    confirmed_obs_.push_back(
+        {l.id, l.p_w, static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px});
+  }
   if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(c.u_px, c.v_px), h.d_px)) {
     l.p_w_last = T_w_cl_ * *p_cl;
     hot_[slot].p_w_last = l.p_w_last;

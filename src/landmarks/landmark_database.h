@@ -100,6 +100,25 @@ class LandmarkDatabase final : public AnchorPoses {
   Status addProbeResults(const StereoHypotheses& measured);
   void finishFrame();
 
+  /// Between beginFrame() and finishFrame(): the frame's pose corrected by localisation
+  /// (localization/pose_update.h). The landmarks associated this frame are re-placed from their
+  /// measurements with it, the candidates' observations of this frame take it, and scoring,
+  /// confirmation and seeding use it. Association and the anchor check were made with the pose
+  /// given to beginFrame (the prediction). Error, nothing changed, for a non-finite pose.
+  Status correctFramePose(const Pose2& pose);
+
+  /// The observations of landmarks that were confirmed before this frame, associated in this
+  /// frame: id, the landmark's map position p_w and the observed (u, v, d). Valid between
+  /// beginFrame() and finishFrame().
+  struct ConfirmedObservation {
+    uint64_t id;
+    Eigen::Vector3d p_w;
+    float u_px, v_px, d_px;
+  };
+  [[nodiscard]] const std::vector<ConfirmedObservation>& confirmedObservations() const {
+    return confirmed_obs_;
+  }
+
   /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
   [[nodiscard]] const Landmark* find(uint64_t id) const;
 
@@ -182,7 +201,14 @@ class LandmarkDatabase final : public AnchorPoses {
     uint32_t point_index;
   };
   std::vector<GridEntry> grid_uvd_;
-  std::vector<uint32_t> rivals_;     // confirm()'s buffer
+  std::vector<uint32_t> rivals_;  // confirm()'s buffer
+  /// This frame's applied observations: slot and measurement (correctFramePose re-places them).
+  struct FrameObservation {
+    uint32_t slot;
+    float u_px, v_px, d_px;
+  };
+  std::vector<FrameObservation> frame_obs_;
+  std::vector<ConfirmedObservation> confirmed_obs_;
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
   // The probe's per-frame buffers (reused): pixels and the prediction each stands for.
   std::vector<Corner> probe_pixels_;

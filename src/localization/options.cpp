@@ -6,13 +6,47 @@
 
 namespace twocam::localization {
 
+const char* modeName(Mode mode) {
+  switch (mode) {
+    case Mode::kOdometry:
+      return "odometry";
+    case Mode::kPnp:
+      return "pnp";
+    case Mode::kFused:
+      return "fused";
+  }
+  return "?";
+}
+
+Status parseMode(const std::string& name, Mode* mode) {
+  for (Mode m : {Mode::kOdometry, Mode::kPnp, Mode::kFused}) {
+    if (name == modeName(m)) {
+      *mode = m;
+      return Status::ok();
+    }
+  }
+  return Status::error("unknown localization mode '" + name + "'; expected odometry, pnp or fused");
+}
+
+Status PnpOptions::validate(const char* prefix) const {
+  const std::string p(prefix);
+  if (Status s = checkRange(p + "reprojection_px", reprojection_px, 0.1, 100.0, "px"); !s) return s;
+  return checkRange(p + "iterations", iterations, 1, 100000);
+}
+
+Status LocalizationOptions::validate() const {
+  if (Status s = update.validate("localization.update."); !s) return s;
+  if (Status s = slip.validate("localization.slip."); !s) return s;
+  return pnp.validate("localization.pnp.");
+}
+
 Status PoseUpdateOptions::validate(const char* prefix) const {
   const std::string p(prefix);
   if (Status s = checkRange(p + "min_landmarks", min_landmarks, 3, 100000); !s) return s;
   if (Status s = checkRange(p + "pixel_sigma_px", pixel_sigma_px, 1e-3, 100.0, "px"); !s) return s;
   if (Status s = checkRange(p + "disparity_sigma_px", disparity_sigma_px, 1e-3, 100.0, "px"); !s)
     return s;
-  if (Status s = checkRange(p + "huber_sigma", huber_sigma, 0.1, 100.0); !s) return s;
+  if (Status s = checkRange(p + "cauchy_sigma", cauchy_sigma, 0.1, 100.0); !s) return s;
   if (Status s = checkRange(p + "inlier_chi2", inlier_chi2, 0.1, 1e4); !s) return s;
   if (Status s = checkRange(p + "planar_sigma_m", planar_sigma_m, 1e-6, 10.0, "m"); !s) return s;
   if (Status s = checkRange(p + "planar_sigma_rad", planar_sigma_rad, 1e-6, 3.0, "rad"); !s)

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/calib3d.hpp>
 
 namespace twocam::localization {
 namespace {
@@ -129,7 +130,13 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   Eigen::Quaterniond q(prediction.T_w_b.linear());
   q.normalize();
   Eigen::Vector3d t = prediction.T_w_b.translation();
-  ceres::Problem problem;
+  // Two stages: a Huber loss first, which converges from a prediction many sigma off (a slip),
+  // then the redescending Cauchy loss from there, which stops wrong associations pulling.
+  ceres::LossFunctionWrapper loss(new ceres::HuberLoss(2.0 * options.cauchy_sigma),
+                                  ceres::TAKE_OWNERSHIP);
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
   problem.AddParameterBlock(q.coeffs().data(), 4, new ceres::EigenQuaternionManifold);
   problem.AddParameterBlock(t.data(), 3);
   problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 6, 4, 3>(
@@ -140,7 +147,7 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   for (const StereoResidual& f : residuals) {
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<StereoResidual, 3, 4, 3>(new StereoResidual(f)),
-        new ceres::HuberLoss(options.huber_sigma),
+        &loss,
         q.coeffs().data(),
         t.data());
   }
@@ -152,6 +159,10 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   so.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  if (summary.IsSolutionUsable()) {
+    loss.Reset(new ceres::CauchyLoss(options.cauchy_sigma), ceres::TAKE_OWNERSHIP);
+    ceres::Solve(so, &problem, &summary);
+  }
   if (!summary.IsSolutionUsable() || !q.coeffs().allFinite() || !t.allFinite()) return out;
 
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -188,6 +199,69 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   prior_cov += Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
   out.estimate.T_w_b = T;
   out.estimate.cov = (prior_cov.inverse() + info).inverse();
+  out.visual = true;
+  return out;
+}
+
+PoseUpdateResult pnpPose(const StereoRig& rig,
+                         const PoseWithCovariance& prediction,
+                         const std::vector<LandmarkObservation>& observations,
+                         const PoseUpdateOptions& update,
+                         const PnpOptions& pnp) {
+  PoseUpdateResult out;
+  out.estimate = prediction;
+  out.inlier.assign(observations.size(), 0);
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  std::vector<size_t> used;
+  for (size_t i = 0; i < observations.size(); ++i) {
+    const LandmarkObservation& o = observations[i];
+    if (!o.p_w.allFinite() || !std::isfinite(o.u_px) || !std::isfinite(o.v_px)) continue;
+    object.emplace_back(o.p_w.x(), o.p_w.y(), o.p_w.z());
+    image.emplace_back(o.u_px, o.v_px);
+    used.push_back(i);
+  }
+  out.observations = static_cast<int>(object.size());
+  if (out.observations < std::max(4, update.min_landmarks)) return out;
+  const Eigen::Isometry3d T_cl_w = (prediction.T_w_b * rig.T_b_cl).inverse();
+  const Eigen::AngleAxisd aa(T_cl_w.linear());
+  const Eigen::Vector3d r0 = aa.angle() * aa.axis();
+  cv::Mat rvec = (cv::Mat_<double>(3, 1) << r0.x(), r0.y(), r0.z());
+  cv::Mat tvec = (cv::Mat_<double>(3, 1) << T_cl_w.translation().x(),
+                  T_cl_w.translation().y(),
+                  T_cl_w.translation().z());
+  const cv::Matx33d K(rig.fx_px, 0, rig.cx_px, 0, rig.fy_px, rig.cy_px, 0, 0, 1);
+  cv::Mat inliers;
+  bool ok = false;
+  try {
+    ok = cv::solvePnPRansac(object,
+                            image,
+                            K,
+                            cv::noArray(),
+                            rvec,
+                            tvec,
+                            true,
+                            pnp.iterations,
+                            static_cast<float>(pnp.reprojection_px),
+                            0.99,
+                            inliers,
+                            cv::SOLVEPNP_ITERATIVE);
+  } catch (const cv::Exception&) {
+    ok = false;  // degenerate configuration: no visual pose this frame
+  }
+  if (!ok || inliers.rows < update.min_landmarks) return out;
+  Eigen::Vector3d r, t;
+  for (int k = 0; k < 3; ++k) {
+    r[k] = rvec.at<double>(k);
+    t[k] = tvec.at<double>(k);
+  }
+  if (!r.allFinite() || !t.allFinite()) return out;
+  Eigen::Isometry3d T_cl_w_est = Eigen::Isometry3d::Identity();
+  if (r.norm() > 0.0) T_cl_w_est.linear() = Eigen::AngleAxisd(r.norm(), r.normalized()).matrix();
+  T_cl_w_est.translation() = t;
+  out.estimate.T_w_b = T_cl_w_est.inverse() * rig.T_b_cl.inverse();
+  out.inliers = inliers.rows;
+  for (int k = 0; k < inliers.rows; ++k) out.inlier[used[inliers.at<int>(k)]] = 1;
   out.visual = true;
   return out;
 }

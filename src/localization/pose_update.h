@@ -148,6 +148,15 @@ bool PriorResidual::operator()(const T* q_w_b, const T* t_w_b, T* residual) cons
   return true;
 }
 
+/// The vision-only baseline: OpenCV solvePnPRansac (iterative, from the prediction as the
+/// extrinsic guess) on the observations' map points and left pixels. `visual` with at least
+/// update.min_landmarks RANSAC inliers; the covariance is then the prediction's (PnP gives none).
+PoseUpdateResult pnpPose(const StereoRig& rig,
+                         const PoseWithCovariance& prediction,
+                         const std::vector<LandmarkObservation>& observations,
+                         const PoseUpdateOptions& update,
+                         const PnpOptions& pnp);
+
 /// Planar part of a 6-DoF pose: (x, y, yaw of the body x axis projected on the floor).
 Pose2 toPose2(const Eigen::Isometry3d& T_w_b);
 

@@ -92,7 +92,12 @@ static_assert(fieldCount<landmarks::InlierRatioOptions>() == 3,
               "InlierRatioOptions gained or lost a field: map it in visitInlierRatio (see above)");
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
-static_assert(fieldCount<PipelineConfig>() == 4,
+static_assert(
+    fieldCount<localization::LocalizationOptions>() == 4,
+    "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
+static_assert(fieldCount<localization::PoseUpdateOptions>() == 8,
+              "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
+static_assert(fieldCount<PipelineConfig>() == 5,
               "PipelineConfig gained or lost a field: map it in visitConfig (see above)");
 
 // ---- the layout: one visit function per struct ------------------------------------------------
@@ -379,6 +384,36 @@ void visitMapping(O& o, V& v) {
 }
 
 template <typename O, typename V>
+void visitPoseUpdate(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(min_landmarks, "fewest inliers for a visual pose [-], in [3, 100000]");
+  TWOCAM_CONFIG_KEY(pixel_sigma_px, "observed column and row sigma [px]");
+  TWOCAM_CONFIG_KEY(disparity_sigma_px, "observed disparity sigma [px]");
+  TWOCAM_CONFIG_KEY(cauchy_sigma, "scale of the Cauchy loss on the stereo residuals [sigma]");
+  TWOCAM_CONFIG_KEY(inlier_chi2, "squared normalised residual of an inlier, 3 dof [-]");
+  TWOCAM_CONFIG_KEY(planar_sigma_m, "soft planar prior: height change per frame [m]");
+  TWOCAM_CONFIG_KEY(planar_sigma_rad, "soft planar prior: roll and pitch change per frame [rad]");
+  TWOCAM_CONFIG_KEY(max_iterations, "Gauss-Newton iterations of the solve [-]");
+}
+
+template <typename O, typename V>
+void visitLocalization(O& o, V& v) {
+  TWOCAM_CONFIG_KEY(mode, "where the poses come from: odometry | pnp | fused");
+  v.section("update", "the robust pose update (localization/options.h)", [&](V& s) {
+    visitPoseUpdate(o.update, s);
+  });
+  v.section("slip", "the windowed slip test", [&](V& s) {
+    auto& so = o.slip;
+    s("window_frames", so.window_frames, "frames compared with odometry [-], in [1, 100]");
+    s("chi2", so.chi2, "chi-square (3 dof) of an odometry outlier [-]");
+  });
+  v.section("pnp", "the vision-only baseline (OpenCV solvePnPRansac)", [&](V& s) {
+    auto& po = o.pnp;
+    s("reprojection_px", po.reprojection_px, "RANSAC inlier threshold [px]");
+    s("iterations", po.iterations, "RANSAC iterations [-]");
+  });
+}
+
+template <typename O, typename V>
 void visitConfig(O& o, V& v) {
   v.section("frontend", "corners and stereo hypotheses (frontend/frontend.h)", [&](V& s) {
     visitFrontend(o.frontend, s);
@@ -388,6 +423,9 @@ void visitConfig(O& o, V& v) {
   });
   v.section("mapping", "occupancy mapping (mapping/options.h)", [&](V& s) {
     visitMapping(o.mapping, s);
+  });
+  v.section("localization", "where the poses come from (docs/localization.md)", [&](V& s) {
+    visitLocalization(o.localization, s);
   });
   TWOCAM_CONFIG_KEY(seed,
                     "recorded for reproducibility; twocam run draws no random numbers today [-]");
@@ -437,6 +475,9 @@ class Writer {
   void replaced(const char* /*old_key*/, const char* /*new_key*/) {}
   void operator()(const char* key, landmarks::Policy value, const char* comment) {
     line(key, landmarks::policyName(value), comment);
+  }
+  void operator()(const char* key, localization::Mode value, const char* comment) {
+    line(key, localization::modeName(value), comment);
   }
 
   /// Old keys are not written.
@@ -692,6 +733,9 @@ class Reader {
   static void read(const Node& n, const std::string& path, landmarks::Policy* out) {
     readEnum(n, path, out, landmarks::parsePolicy);
   }
+  static void read(const Node& n, const std::string& path, localization::Mode* out) {
+    readEnum(n, path, out, localization::parseMode);
+  }
   template <typename E>
   static void readEnum(const Node& n,
                        const std::string& path,
@@ -717,7 +761,7 @@ Status PipelineConfig::validate() const {
     if (s.message().rfind("mapping.", 0) == 0) return s;
     return Status::error("mapping: " + s.message());
   }
-  return Status::ok();
+  return localization.validate();  // already "localization.<group>.<key> = ..."
 }
 
 Status parseConfigYaml(const std::string& yaml_text, PipelineConfig* config) {

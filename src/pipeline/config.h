@@ -7,6 +7,7 @@
 ///   landmarks:  {policy: consistency, tracker: {..., odometry_noise: {...}}, refine: {...},
 ///                consistency: {...}, seen_count: {...}, culling: {...}, inlier_ratio: {...}}
 ///   mapping:    {...MappingOptions}
+///   localization: {mode: odometry, update: {...}, slip: {...}, pnp: {...}}
 ///   seed:       1
 ///
 /// Keys are the C++ field names; enums are written as their command-line names. Every key is
@@ -19,6 +20,7 @@
 #include "common/status.h"
 #include "frontend/frontend.h"
 #include "landmarks/options.h"
+#include "localization/options.h"
 #include "mapping/options.h"
 
 namespace twocam::pipeline {
@@ -43,6 +45,9 @@ struct PipelineConfig {
   landmarks::LandmarkOptions landmarks;
   /// OctoMap occupancy mapping from confirmed landmarks.
   mapping::MappingOptions mapping;
+  /// Where the poses come from (odometry, pnp, fused) and the pose update's options
+  /// (docs/localization.md). The odometry noise model is the tracker's.
+  localization::LocalizationOptions localization;
   /// Seed of the run's random draws [-], recorded (in config_used.yaml) for reproducibility.
   /// Today nothing in `twocam run` draws random numbers: Harris detection, SAD matching and the
   /// landmark database are deterministic and the Ceres refinement runs single-threaded, so one

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "landmarks/landmark_model.h"
 
@@ -14,6 +15,34 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+void Pipeline::slipTest(const Pose2& odom_pose, FrameOutput* out) {
+  // Window of the last window_frames + 1 frames; the visual motion over it against odometry's.
+  const auto w = static_cast<size_t>(loc_options_.slip.window_frames);
+  window_.push_back({report_.frame, estimate_, odom_pose, out->visual});
+  if (window_.size() > w + 1) window_.erase(window_.begin());
+  if (window_.size() < w + 1 || !window_.front().visual || !window_.back().visual) return;
+  const auto motionChi2 = [&](const WindowEntry& a, const WindowEntry& b) {
+    const Pose2 motion = localization::odometryIncrement(a.odom, b.odom);
+    const Eigen::Matrix3d cov = localization::odometryCovariance(
+        odometry_noise_, std::hypot(motion.x_m, motion.y_m), std::abs(motion.yaw_rad));
+    return localization::slipChi2(a.estimate, b.estimate, motion, cov);
+  };
+  if (motionChi2(window_.front(), window_.back()) <= loc_options_.slip.chi2) return;
+  // The step of the window that disagrees most is the slip; each is flagged once.
+  size_t worst = 1;
+  double worst_chi2 = -1.0;
+  for (size_t k = 1; k < window_.size(); ++k) {
+    const double c = motionChi2(window_[k - 1], window_[k]);
+    if (c > worst_chi2) {
+      worst_chi2 = c;
+      worst = k;
+    }
+  }
+  if (window_[worst].frame <= last_slip_frame_) return;
+  last_slip_frame_ = window_[worst].frame;
+  out->slip_frame = last_slip_frame_;
+}
+
 Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
   frontend::SalientSadOptions& sad = config->frontend.sad;
   sad.max_disparity_px = std::min(sad.max_disparity_px, rig.width_px - sad.window_width_px);
@@ -23,7 +52,12 @@ Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
 }
 
 Pipeline::Pipeline(const StereoRig& rig, const PipelineConfig& config)
-    : rig_(rig), frontend_(config.frontend), db_(rig, config.landmarks), mapper_(config.mapping) {}
+    : rig_(rig),
+      loc_options_(config.localization),
+      odometry_noise_(config.landmarks.tracker.odometry_noise),
+      frontend_(config.frontend),
+      db_(rig, config.landmarks),
+      mapper_(config.mapping) {}
 
 void Pipeline::skipRowSupport() {
   frontend::FrontendOptions options = frontend_.options();
@@ -73,9 +107,57 @@ Status Pipeline::landmarksAndMap(int32_t frame,
                                  FrameOutput* out,
                                  const StereoFrame* images) {
   const auto t1 = std::chrono::steady_clock::now();
-  if (Status s = db_.beginFrame(frame, t_ns, odom_pose, hyps, &report_); !s) {
+  // The pose the database predicts with: odometry, or the prediction from the last estimate.
+  using localization::Mode;
+  localization::PoseWithCovariance prediction;
+  const bool localizing = loc_options_.mode != Mode::kOdometry;
+  out->pose = odom_pose;
+  out->visual = false;
+  out->landmarks_used = out->landmarks_observed = 0;
+  out->slip_frame = -1;
+  if (localizing) {
+    if (has_estimate_) {
+      prediction = localization::predictPose(
+          estimate_, localization::odometryIncrement(previous_odom_, odom_pose), odometry_noise_);
+    } else {
+      prediction.T_w_b = toIsometry(odom_pose);  // the shared start pose
+    }
+    out->pose = localization::toPose2(prediction.T_w_b);
+  }
+  if (Status s = db_.beginFrame(frame, t_ns, out->pose, hyps, &report_); !s) {
     out->failure = FrameOutput::Failure::kLandmarks;
     return s;
+  }
+  if (localizing) {
+    const auto tl = std::chrono::steady_clock::now();
+    loc_obs_.clear();
+    for (const auto& o : db_.confirmedObservations()) {
+      loc_obs_.push_back({o.id, o.p_w, o.u_px, o.v_px, o.d_px});
+    }
+    const localization::PoseUpdateResult r =
+        loc_options_.mode == Mode::kFused
+            ? localization::updatePose(rig_, prediction, loc_obs_, loc_options_.update)
+            : localization::pnpPose(
+                  rig_, prediction, loc_obs_, loc_options_.update, loc_options_.pnp);
+    estimate_ = r.estimate;
+    // The landmark database and the map take planar poses (landmarks/landmark_database.h), so
+    // the estimate is kept planar too: otherwise height, roll and pitch, held only relative to
+    // the prediction, would wander and the estimator's camera differ from the database's.
+    estimate_.T_w_b = toIsometry(localization::toPose2(estimate_.T_w_b));
+    has_estimate_ = true;
+    previous_odom_ = odom_pose;
+    out->visual = r.visual;
+    out->landmarks_used = r.inliers;
+    out->landmarks_observed = r.observations;
+    if (r.visual) {
+      out->pose = localization::toPose2(estimate_.T_w_b);
+      if (Status s = db_.correctFramePose(out->pose); !s) {
+        out->failure = FrameOutput::Failure::kLandmarks;
+        return s;
+      }
+    }
+    if (loc_options_.mode == Mode::kFused) slipTest(odom_pose, out);
+    out->times.localization_ms = msSince(tl);
   }
   // Candidates whose corner was not detected are re-measured on this frame's images
   // (ConsistencyOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its
@@ -94,7 +176,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     }
   }
   db_.finishFrame();
-  out->times.landmarks_ms = msSince(t1);
+  out->times.landmarks_ms = msSince(t1) - out->times.localization_ms;
 
   // Map: one ray per confirmed landmark observed in this frame (a landmark is listed once even
   // when several hypotheses of its corner pointed at it).
@@ -115,7 +197,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   }
   for (uint32_t slot : mapped_slot_list_) slot_mapped_[slot] = 0;
   mapped_slot_list_.clear();
-  out->camera_origin_w = landmarks::cameraPoseInWorld(odom_pose, rig_.T_b_cl).translation();
+  out->camera_origin_w = landmarks::cameraPoseInWorld(out->pose, rig_.T_b_cl).translation();
   octomap::OcTreeKey origin_key;
   const octomap::point3d origin(static_cast<float>(out->camera_origin_w.x()),
                                 static_cast<float>(out->camera_origin_w.y()),

@@ -13,6 +13,7 @@
 #include "common/status.h"
 #include "frontend/frontend.h"
 #include "landmarks/landmark_database.h"
+#include "localization/pose_update.h"
 #include "mapping/occupancy_mapper.h"
 #include "pipeline/config.h"
 
@@ -23,7 +24,10 @@ struct StageTimes {
   double frontend_ms = 0.0;
   double landmarks_ms = 0.0;
   double mapping_ms = 0.0;
-  [[nodiscard]] double totalMs() const { return frontend_ms + landmarks_ms + mapping_ms; }
+  double localization_ms = 0.0;  ///< the pose update (0 in odometry mode)
+  [[nodiscard]] double totalMs() const {
+    return frontend_ms + landmarks_ms + mapping_ms + localization_ms;
+  }
 };
 
 /// What one frame produced. Refers to the pipeline's state: valid until the next call.
@@ -38,6 +42,16 @@ struct FrameOutput {
   /// Landmark id of each mapped point, parallel to mapped_points_w (database().find(id)).
   std::vector<uint64_t> mapped_ids;
   Eigen::Vector3d camera_origin_w = Eigen::Vector3d::Zero();
+  /// The body pose this frame used (landmarks, map) in the robot's world frame: the odometry
+  /// pose in odometry mode, else the estimate.
+  Pose2 pose;
+  /// Localisation (pnp, fused): the pose used visual measurements, and how many confirmed
+  /// landmarks it used (inliers); observations offered to it.
+  bool visual = false;
+  int landmarks_used = 0;
+  int landmarks_observed = 0;
+  /// Fused: a frame the slip test flagged as an odometry outlier in this frame's window, or -1.
+  int32_t slip_frame = -1;
   /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
   /// was not mapped (landmarks were still updated).
   bool outside_map = false;
@@ -90,7 +104,27 @@ class Pipeline {
                          FrameOutput* out,
                          const StereoFrame* images);
 
+  /// The frame's pose (localization.mode): odometry, or predicted then corrected between the
+  /// database's association and its scoring. Errors only from the database.
+  Status localize(int32_t frame, const Pose2& odom_pose, FrameOutput* out);
+  void slipTest(const Pose2& odom_pose, FrameOutput* out);
+
   StereoRig rig_;
+  localization::LocalizationOptions loc_options_;
+  OdometryNoise odometry_noise_;
+  bool has_estimate_ = false;
+  localization::PoseWithCovariance estimate_;
+  Pose2 previous_odom_;
+  /// The slip test's window: estimates and odometry poses of the last frames, oldest first.
+  struct WindowEntry {
+    int32_t frame;
+    localization::PoseWithCovariance estimate;
+    Pose2 odom;
+    bool visual;
+  };
+  std::vector<WindowEntry> window_;
+  int32_t last_slip_frame_ = -1;
+  std::vector<localization::LandmarkObservation> loc_obs_;
   frontend::Frontend frontend_;
   landmarks::LandmarkDatabase db_;
   mapping::OccupancyMapper mapper_;

@@ -45,6 +45,7 @@ Status Run::execute(const FrameSource& next,
            "database needs wheel odometry to predict where landmarks reappear, so there are no "
            "landmarks and no map");
     }
+    if (s.frames == 0) s.first_t_ns = frame.stereo.t_ns;
     ++s.frames;
     if (callbacks.progress) callbacks.progress(s.frames);
     if (s.odometry_mode && !frame.odometry) {
@@ -86,6 +87,10 @@ Status Run::execute(const FrameSource& next,
     s.sum_hypotheses += hypotheses;
     if (s.odometry_mode) {
       s.odom_track.push_back({frame.stereo.t_ns, toIsometry(frame.odometry->pose)});
+      s.pose_track.push_back({frame.stereo.t_ns, toIsometry(fo.pose)});
+      s.visual.push_back(fo.visual ? 1 : 0);
+      s.landmarks_used.push_back(fo.landmarks_used);
+      if (fo.slip_frame >= 0) s.slip_frames.push_back(fo.slip_frame);
     }
     if (callbacks.on_frame) {
       if (Status cs = callbacks.on_frame(RunFrame{frame, fo, pipe_, s.odometry_mode}); !cs)

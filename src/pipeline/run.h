@@ -58,6 +58,16 @@ struct RunSummary {
   std::vector<FrameRecord> records;
   /// Odometry pose of each processed frame (odometry mode) in the odometry world frame.
   std::vector<io::TimedPose> odom_track;
+  /// The pose each processed frame used (odometry mode: equals odom_track), the robot's world.
+  std::vector<io::TimedPose> pose_track;
+  /// Per processed frame (odometry mode): the pose used visual measurements; confirmed landmarks
+  /// in the pose (inliers).
+  std::vector<uint8_t> visual;
+  std::vector<int> landmarks_used;
+  /// Frames the slip test flagged as odometry outliers (fused), in order.
+  std::vector<int32_t> slip_frames;
+  /// Time stamp of the first frame read [ns] (the simulator's time 0).
+  int64_t first_t_ns = 0;
   /// Wall time of the whole loop, reading and callbacks included [ms].
   double wall_ms = 0.0;
 };

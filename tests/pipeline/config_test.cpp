@@ -28,6 +28,8 @@ constexpr int kFrontendOwnKeys = 2;  // source, simd
 constexpr int kLandmarkKeys = 51;    // policy + tracker 12 + odometry_noise 5 + refine 2 +
                                      // consistency 23 + seen_count 2 + culling 3 + inlier_ratio 3
 constexpr int kMappingKeys = 8;
+// localization: mode, update (8), slip (2), pnp (2).
+constexpr int kLocalizationKeys = 13;
 constexpr int kTopLevelKeys = 1;  // seed
 
 std::string readFile(const std::string& path) {
@@ -146,14 +148,16 @@ TEST(PipelineConfig, AwkwardValuesRoundTripBitForBit) {
 TEST(PipelineConfig, WritesEveryFieldOnceWithAComment) {
   std::vector<std::string> lines;
   const std::vector<Leaf> all = leaves(toYaml(PipelineConfig{}), &lines);
-  EXPECT_EQ(
-      static_cast<int>(all.size()),
-      kHarrisKeys + kSadKeys + kFrontendOwnKeys + kLandmarkKeys + kMappingKeys + kTopLevelKeys);
+  EXPECT_EQ(static_cast<int>(all.size()),
+            kHarrisKeys + kSadKeys + kFrontendOwnKeys + kLandmarkKeys + kMappingKeys +
+                kLocalizationKeys + kTopLevelKeys);
   int harris = 0;
   int sad = 0;
   int landmarks = 0;
   int mapping = 0;
+  int localization = 0;
   for (const Leaf& leaf : all) {
+    localization += leaf.path.rfind("localization.", 0) == 0;
     harris += leaf.path.rfind("frontend.harris.", 0) == 0;
     sad += leaf.path.rfind("frontend.sad.", 0) == 0;
     landmarks += leaf.path.rfind("landmarks.", 0) == 0;
@@ -165,6 +169,7 @@ TEST(PipelineConfig, WritesEveryFieldOnceWithAComment) {
   EXPECT_EQ(sad, kSadKeys);
   EXPECT_EQ(landmarks, kLandmarkKeys);
   EXPECT_EQ(mapping, kMappingKeys);
+  EXPECT_EQ(localization, kLocalizationKeys);
 }
 
 TEST(PipelineConfig, ReadsEveryKeyItWrites) {
