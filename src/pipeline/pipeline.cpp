@@ -21,18 +21,18 @@ void Pipeline::slipTest(const Pose2& odom_pose, FrameOutput* out) {
   window_.push_back({report_.frame, estimate_, odom_pose, out->visual});
   if (window_.size() > w + 1) window_.erase(window_.begin());
   if (window_.size() < w + 1 || !window_.front().visual || !window_.back().visual) return;
-  const auto motionChi2 = [&](const WindowEntry& a, const WindowEntry& b) {
+  const auto motion_chi2 = [&](const WindowEntry& a, const WindowEntry& b) {
     const Pose2 motion = localization::odometryIncrement(a.odom, b.odom);
     const Eigen::Matrix3d cov = localization::odometryCovariance(
         odometry_noise_, std::hypot(motion.x_m, motion.y_m), std::abs(motion.yaw_rad));
     return localization::slipChi2(a.estimate, b.estimate, motion, cov);
   };
-  if (motionChi2(window_.front(), window_.back()) <= loc_options_.slip.chi2) return;
+  if (motion_chi2(window_.front(), window_.back()) <= loc_options_.slip.chi2) return;
   // The step of the window that disagrees most is the slip; each is flagged once.
   size_t worst = 1;
   double worst_chi2 = -1.0;
   for (size_t k = 1; k < window_.size(); ++k) {
-    const double c = motionChi2(window_[k - 1], window_[k]);
+    const double c = motion_chi2(window_[k - 1], window_[k]);
     if (c > worst_chi2) {
       worst_chi2 = c;
       worst = k;
