@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "localization/pose_update.h"
+#include "support/synthetic_stream.h"
 
 namespace {
 
@@ -18,20 +19,7 @@ using twocam::StereoRig;
 using twocam::localization::LandmarkObservation;
 using twocam::localization::PoseWithCovariance;
 
-StereoRig benchRig() {
-  StereoRig rig;
-  rig.width_px = 640;
-  rig.height_px = 480;
-  rig.fx_px = rig.fy_px = 500.0;
-  rig.cx_px = 319.5;
-  rig.cy_px = 239.5;
-  rig.baseline_m = 0.12;
-  Eigen::Matrix3d R;
-  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // camera z forward = body x, camera x right = -body y
-  rig.T_b_cl.linear() = R;
-  rig.T_b_cl.translation() = Eigen::Vector3d(0.1, 0.06, 0.5);
-  return rig;
-}
+StereoRig benchRig() { return twocam::test::SyntheticStream::defaultRig(); }
 
 std::vector<LandmarkObservation> observations(const StereoRig& rig,
                                               const Eigen::Isometry3d& T_w_b,
