@@ -386,6 +386,53 @@ int stagingLeftovers(const std::string& dir) {
   return n;
 }
 
+TEST(TwocamCli, RunLocalizesInEachModeAndRefusesAnUnknownOne) {
+  const std::string dir = test::makeTempDir("cli_run_localization");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 30 --seed 3 -q")
+                .exit_code,
+            0);
+  for (const std::string& mode : {std::string("fused"), std::string("pnp")}) {
+    const RunResult r = run("run " + dir + "/s.rawlog -o " + dir + "/" + mode +
+                            " -q --no-pictures --localization " + mode);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    std::istringstream tum(readFile(dir + "/" + mode + "/trajectory_est.tum"));
+    int poses = 0;
+    for (std::string line; std::getline(tum, line);) poses += !line.empty() && line[0] != '#';
+    EXPECT_EQ(poses, 30) << mode;
+    const std::string metrics = readFile(dir + "/" + mode + "/metrics.json");
+    for (const std::string& key : {"\"" + mode + "\": ",  // its ATE and final error
+                                   "\"mode\": \"" + mode + "\"",
+                                   std::string("\"visual_fraction\""),
+                                   std::string("\"slips\""),
+                                   std::string("\"localization_median\"")}) {
+      EXPECT_NE((metrics + readFile(dir + "/" + mode + "/timing.json")).find(key),
+                std::string::npos)
+          << mode << ": " << key << "\n"
+          << metrics;
+    }
+    EXPECT_NE(readFile(dir + "/" + mode + "/config_used.yaml").find("mode: " + mode),
+              std::string::npos);
+  }
+  // Same log, same mode: the same output.
+  const RunResult again =
+      run("run " + dir + "/s.rawlog -o " + dir + "/again -q --no-pictures --localization fused");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(readFile(dir + "/fused/metrics.json"), readFile(dir + "/again/metrics.json"));
+  EXPECT_EQ(readFile(dir + "/fused/trajectory_est.tum"),
+            readFile(dir + "/again/trajectory_est.tum"));
+  // Odometry mode writes no estimated track.
+  const RunResult odo = run("run " + dir + "/s.rawlog -o " + dir + "/odo -q --no-pictures");
+  ASSERT_EQ(odo.exit_code, 0) << odo.output;
+  EXPECT_FALSE(fs::exists(dir + "/odo/trajectory_est.tum"));
+  // An unknown mode: an error naming what was typed, exit 1, no output folder.
+  const RunResult bad =
+      run("run " + dir + "/s.rawlog -o " + dir + "/bad -q --no-pictures --localization kalman");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.error.find("--localization kalman"), std::string::npos) << bad.error;
+  EXPECT_NE(bad.error.find("odometry, pnp or fused"), std::string::npos) << bad.error;
+  EXPECT_FALSE(fs::exists(dir + "/bad"));
+}
+
 TEST(TwocamCli, RunReplacesAnEarlierRunAllOrNothingAndNeverAnInput) {
   const std::string dir = test::makeTempDir("cli_run_all_or_nothing");
   ASSERT_EQ(
