@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "common/odometry_noise.h"
-#include "common/random.h"
 #include "common/status.h"
 
 namespace twocam::sim {
@@ -33,54 +31,35 @@ double wrapAngle(double a) {
   return a <= -M_PI ? a + 2.0 * M_PI : a;
 }
 
-/// Composes a body-frame displacement onto a pose (SE(2) product pose * delta).
-Pose2 compose(const Pose2& pose, double dx_m, double dy_m, double dyaw_rad) {
-  const double c = std::cos(pose.yaw_rad);
-  const double s = std::sin(pose.yaw_rad);
-  Pose2 out;
-  out.x_m = pose.x_m + c * dx_m - s * dy_m;
-  out.y_m = pose.y_m + s * dx_m + c * dy_m;
-  out.yaw_rad = wrapAngle(pose.yaw_rad + dyaw_rad);
-  return out;
+/// The start pose: at the first waypoint, heading for the second.
+Pose2 startPose(const RobotSpec& robot) {
+  TWOCAM_CHECK(robot.waypoints.size() >= 2)
+      << "the robot path needs at least 2 waypoints, got " << robot.waypoints.size();
+  const Eigen::Vector2d& p0 = robot.waypoints[0];
+  const Eigen::Vector2d d = robot.waypoints[1] - p0;
+  Pose2 start;
+  start.x_m = p0.x();
+  start.y_m = p0.y();
+  start.yaw_rad = std::atan2(d.y(), d.x());
+  return start;
 }
 
 }  // namespace
-
-Pose2 integrateIncrement(const Pose2& pose, double ds_m, double dyaw_rad) {
-  const double mean_yaw = pose.yaw_rad + 0.5 * dyaw_rad;
-  Pose2 out;
-  out.x_m = pose.x_m + ds_m * std::cos(mean_yaw);
-  out.y_m = pose.y_m + ds_m * std::sin(mean_yaw);
-  out.yaw_rad = wrapAngle(pose.yaw_rad + dyaw_rad);
-  return out;
-}
 
 MotionSimulator::MotionSimulator(const RobotSpec& robot,
                                  const OdometryNoiseSpec& noise,
                                  uint64_t seed,
                                  int64_t start_time_ns)
     : robot_(robot),
-      noise_(noise),
-      rng_(makeRng(seed, RandomStream::kOdometryNoise)),
       start_time_ns_(start_time_ns),
-      slip_applied_(noise.slips.size(), false) {
-  TWOCAM_CHECK(robot_.waypoints.size() >= 2)
-      << "the robot path needs at least 2 waypoints, got " << robot_.waypoints.size();
+      odometry_(noise, seed, startPose(robot)) {
   TWOCAM_CHECK(robot_.frame_rate_hz > 0.0) << "frame_rate_hz = " << robot_.frame_rate_hz;
   TWOCAM_CHECK(robot_.speed_mps >= 0.0) << "speed_mps = " << robot_.speed_mps;
   TWOCAM_CHECK(robot_.max_yaw_rate_rps > 0.0) << "max_yaw_rate_rps = " << robot_.max_yaw_rate_rps;
-  TWOCAM_CHECK(noise_.scale_error > -1.0) << "scale_error = " << noise_.scale_error;
-  TWOCAM_CHECK(noise_.wheel_base_error > -1.0) << "wheel_base_error = " << noise_.wheel_base_error;
-  TWOCAM_CHECK(noise_.sigma_per_m >= 0.0 && noise_.sigma_per_rad >= 0.0)
-      << "sigma_per_m = " << noise_.sigma_per_m << ", sigma_per_rad = " << noise_.sigma_per_rad;
 
-  const Eigen::Vector2d& p0 = robot_.waypoints[0];
-  const Eigen::Vector2d d = robot_.waypoints[1] - p0;
   state_.t_ns = start_time_ns_;
-  state_.true_pose.x_m = p0.x();
-  state_.true_pose.y_m = p0.y();
-  state_.true_pose.yaw_rad = std::atan2(d.y(), d.x());
-  state_.odom_pose = state_.true_pose;
+  state_.true_pose = startPose(robot_);
+  state_.odom_pose = odometry_.pose();
 }
 
 MotionSample MotionSimulator::next() {
@@ -147,28 +126,11 @@ void MotionSimulator::substep(double dt_s, double t_end_s) {
     truth = integrateIncrement(truth, ds, dyaw);
     state_.true_distance_m += std::abs(ds);
     state_.true_turned_rad += std::abs(dyaw);
-
-    // Wheel odometry from the same increment (the random part: common/odometry_noise.h). No draw
-    // when a variance is zero, so noise-free runs are exact and do not depend on the generator.
-    double ds_odo = (1.0 + noise_.scale_error) * ds;
-    double dyaw_odo = dyaw / (1.0 + noise_.wheel_base_error);
-    if (noise_.sigma_per_m > 0.0 && ds != 0.0) {
-      ds_odo += randomIncrementSigma(noise_.sigma_per_m, ds) * unit_normal_(rng_);
-    }
-    if (noise_.sigma_per_rad > 0.0 && dyaw != 0.0) {
-      dyaw_odo += randomIncrementSigma(noise_.sigma_per_rad, dyaw) * unit_normal_(rng_);
-    }
-    state_.odom_pose = integrateIncrement(state_.odom_pose, ds_odo, dyaw_odo);
   }
-
-  // Slips whose time lies in (t_s_, t_end_s]; slips at or before t = 0 land in the first substep.
-  for (size_t i = 0; i < noise_.slips.size(); ++i) {
-    const SlipEvent& slip = noise_.slips[i];
-    if (!slip_applied_[i] && slip.time_s <= t_end_s) {
-      state_.odom_pose = compose(state_.odom_pose, slip.dx_m, slip.dy_m, slip.dyaw_rad);
-      slip_applied_[i] = true;
-    }
-  }
+  // Wheel odometry from the same increment, then the slips whose time lies in
+  // (t_s_, t_end_s]; slips at or before t = 0 land in the first substep.
+  odometry_.advance(ds, dyaw, t_end_s);
+  state_.odom_pose = odometry_.pose();
   t_s_ = t_end_s;
 }
 

@@ -3,9 +3,9 @@
 /// wheel odometry it produces. Model and parameters: docs/simulator.md.
 
 #include <cstdint>
-#include <random>
 
 #include "common/frames.h"
+#include "sim/wheel_odometry.h"
 #include "sim/world.h"
 
 namespace twocam::sim {
@@ -23,7 +23,8 @@ struct MotionSample {
 };
 
 /// Steps a unicycle through the waypoints at the frame rate (with kSubstepsPerFrame internal
-/// integration steps per frame) and integrates wheel odometry with the configured errors.
+/// integration steps per frame) and integrates wheel odometry with the configured errors
+/// (sim/wheel_odometry.h, fed the true increment of every substep).
 /// Deterministic for a given seed: the odometry noise draws from RandomStream::kOdometryNoise.
 class MotionSimulator {
  public:
@@ -41,22 +42,13 @@ class MotionSimulator {
   void substep(double dt_s, double t_end_s);
 
   RobotSpec robot_;
-  OdometryNoiseSpec noise_;
-  std::mt19937_64 rng_;
   int64_t start_time_ns_;
   int frame_index_ = 0;
   size_t target_waypoint_ = 1;
   bool stopped_ = false;
   double t_s_ = 0.0;
   MotionSample state_;
-  std::vector<bool> slip_applied_;
-  /// N(0, 1), scaled per draw; a member so its cached second value stays in the seeded sequence.
-  std::normal_distribution<double> unit_normal_{0.0, 1.0};
+  WheelOdometry odometry_;
 };
-
-/// Applies one wheel-odometry increment to a pose: ds along the mean heading
-/// (midpoint rule), then the turn. Shared by the true and the odometry integration so that
-/// noise-free odometry equals the truth exactly.
-Pose2 integrateIncrement(const Pose2& pose, double ds_m, double dyaw_rad);
 
 }  // namespace twocam::sim
