@@ -117,13 +117,7 @@ void checkRobot(const RobotSpec& robot, Checker* c) {
   }
 }
 
-void checkNoise(const ImageNoiseSpec& image, const OdometryNoiseSpec& odo, Checker* c) {
-  c->nonNegative("image_noise.sigma_grey", image.sigma_grey);
-  c->positive("image_noise.left.gain", image.left.gain);
-  c->finite("image_noise.left.offset_grey", image.left.offset_grey);
-  c->positive("image_noise.right.gain", image.right.gain);
-  c->finite("image_noise.right.offset_grey", image.right.offset_grey);
-
+void checkOdometryNoise(const OdometryNoiseSpec& odo, Checker* c) {
   c->nonNegative("odometry_noise.sigma_per_m", odo.sigma_per_m);
   c->nonNegative("odometry_noise.sigma_per_rad", odo.sigma_per_rad);
   // Both factors divide or scale a motion; -1 would report no motion at all.
@@ -137,6 +131,15 @@ void checkNoise(const ImageNoiseSpec& image, const OdometryNoiseSpec& odo, Check
     c->finite(key + ".dy_m", slip.dy_m);
     c->finite(key + ".dyaw_deg", slip.dyaw_rad * kRadToDeg);
   }
+}
+
+void checkNoise(const ImageNoiseSpec& image, const OdometryNoiseSpec& odo, Checker* c) {
+  c->nonNegative("image_noise.sigma_grey", image.sigma_grey);
+  c->positive("image_noise.left.gain", image.left.gain);
+  c->finite("image_noise.left.offset_grey", image.left.offset_grey);
+  c->positive("image_noise.right.gain", image.right.gain);
+  c->finite("image_noise.right.offset_grey", image.right.offset_grey);
+  checkOdometryNoise(odo, c);
 }
 
 void checkTexture(const TextureSpec& t, const std::string& key, Checker* c) {
@@ -305,6 +308,12 @@ Eigen::AlignedBox3d worldBounds(const World& world) {
     }
   }
   return box;
+}
+
+Status OdometryNoiseSpec::validate() const {
+  Checker c;
+  checkOdometryNoise(*this, &c);
+  return c.status();
 }
 
 OdometryNoiseSpec scaledOdometryNoise(const OdometryNoiseSpec& spec, double factor) {

@@ -115,6 +115,11 @@ struct OdometryNoiseSpec {
   double scale_error = 0.0;       ///< [-], e.g. 0.01 = reports 1 % too far
   double wheel_base_error = 0.0;  ///< [-], relative
   std::vector<SlipEvent> slips;
+
+  /// The checks World::validate() makes on its odometry_noise section (sigmas >= 0, scale and
+  /// wheel-base errors > -1, slip times >= 0, finite offsets); messages name the key as a world
+  /// file writes it ("odometry_noise.sigma_per_m = -1: must be >= 0").
+  [[nodiscard]] Status validate() const;
 };
 
 /// The noise model with every error multiplied by `factor` >= 0: the random-walk sigmas, the

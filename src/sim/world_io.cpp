@@ -563,6 +563,49 @@ Status parseImpl(const std::string& yaml_text,
 
 }  // namespace
 
+Status parseOdometryNoiseFile(const std::string& yaml_text,
+                              const std::string& source,
+                              OdometryNoiseSpec* noise) {
+  Yaml doc;
+  if (const auto error = parseYaml(yaml_text, &doc)) {
+    return Status::error("cannot parse odometry noise file " + source + ": " + *error);
+  }
+  // A world file's defaults for absent keys.
+  OdometryNoiseSpec spec = World().odometry_noise;
+  try {
+    const Node& root = doc.node();
+    if (root.isNullNode()) fail("the document is empty; expected an 'odometry_noise:' section");
+    const MapReader m(root, "", {"odometry_noise"});
+    parseOdometryNoise(m.require("odometry_noise"), &spec);
+  } catch (const WorldFileError& e) {
+    return Status::error("odometry noise file " + source + ": " + e.what());
+  } catch (const std::exception& e) {
+    return Status::error("cannot read odometry noise file " + source + ": " + mrptMessage(e));
+  }
+  if (Status s = spec.validate(); !s) {
+    return Status::error("odometry noise file " + source + ": " + s.message());
+  }
+  *noise = std::move(spec);
+  return Status::ok();
+}
+
+Status loadOdometryNoise(const std::string& path, OdometryNoiseSpec* noise) {
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    return Status::error("cannot read odometry noise file '" + path + "': no such file");
+  if (fs::is_directory(path, ec))
+    return Status::error("cannot read odometry noise file '" + path + "': it is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return Status::error("cannot read odometry noise file '" + path +
+                         "': " + std::strerror(errno));
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Status::error("cannot read odometry noise file '" + path + "': read error");
+  return parseOdometryNoiseFile(text.str(), "'" + path + "'", noise);
+}
+
 Status parseWorld(const std::string& yaml_text, const std::string& base_dir, World* world) {
   return parseImpl(yaml_text, base_dir, "(YAML text)", world);
 }
