@@ -55,6 +55,8 @@ namespace {
 
 constexpr const char* kHeaderPrefix = "twocam rawlog v1";
 constexpr const char* kEndPrefix = "twocam rawlog end";
+/// Last field of the header of a log with synthetic odometry, followed by the note.
+constexpr const char* kSyntheticOdometryField = "; synthetic odometry: ";
 
 mrpt::Clock::time_point toMrptTime(int64_t t_ns) {
   return mrpt::Clock::time_point(
@@ -138,6 +140,8 @@ Status RawlogWriterOptions::validate() const {
   if (Status s = checkRange("gzip_level", gzip_level, 0, 9); !s) return s;
   if (Status s = checkRange("depth_unit_m", depth_unit_m, 0.0, 1.0, "m"); !s) return s;
   if (Status s = checkPositive("max_depth_m", max_depth_m, "m"); !s) return s;
+  if (synthetic_odometry.find_first_of("\r\n") != std::string::npos)
+    return Status::error("synthetic_odometry: the note must be one line");
   return checkRange("max_depth_m", max_depth_m, 0.0, kMaxLogCoordinateM, "m");
 }
 
@@ -213,8 +217,11 @@ Status RawlogWriter::write(const StereoFrame& stereo,
     try {
       mrpt::obs::CObservationComment header;
       std::ostringstream os;
-      os << kHeaderPrefix << "; observations-only; labels " << kStereoLabel << " " << kOdometryLabel
-         << " " << kGtPoseLabel << " " << kGtDepthLabel << "; depth_unit_m " << depthUnit(options_);
+      const bool synthetic = !options_.synthetic_odometry.empty();
+      os << kHeaderPrefix << "; observations-only; labels " << kStereoLabel << " "
+         << (synthetic ? kSyntheticOdometryLabel : kOdometryLabel) << " " << kGtPoseLabel << " "
+         << kGtDepthLabel << "; depth_unit_m " << depthUnit(options_);
+      if (synthetic) os << kSyntheticOdometryField << options_.synthetic_odometry;
       header.text = os.str();
       header.sensorLabel = "TWOCAM";
       header.timestamp = t;
@@ -245,7 +252,8 @@ Status RawlogWriter::write(const StereoFrame& stereo,
     arch << obs;
     if (odometry != nullptr) {
       mrpt::obs::CObservationOdometry odo;
-      odo.sensorLabel = kOdometryLabel;
+      odo.sensorLabel =
+          options_.synthetic_odometry.empty() ? kOdometryLabel : kSyntheticOdometryLabel;
       odo.timestamp = toMrptTime(odometry->t_ns);
       odo.odometry =
           mrpt::poses::CPose2D(odometry->pose.x_m, odometry->pose.y_m, odometry->pose.yaw_rad);
@@ -361,6 +369,8 @@ struct RawlogReader::Impl {
   std::string images_dir;
   bool is_twocam = false;
   bool saw_end_marker = false;
+  /// The header's note on synthetic odometry, when it has one.
+  std::optional<std::string> synthetic_odometry;
   bool rig_known = false;
   /// Frames come from the stereo observations with this label (the first one seen); others
   /// (a second stereo camera) are skipped.
@@ -424,7 +434,12 @@ struct RawlogReader::Impl {
       }
       if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj)) {
         if (auto c = std::dynamic_pointer_cast<mrpt::obs::CObservationComment>(obs)) {
-          if (c->text.rfind(kHeaderPrefix, 0) == 0) is_twocam = true;
+          if (c->text.rfind(kHeaderPrefix, 0) == 0) {
+            is_twocam = true;
+            const size_t at = c->text.find(kSyntheticOdometryField);
+            if (at != std::string::npos)
+              synthetic_odometry = c->text.substr(at + std::strlen(kSyntheticOdometryField));
+          }
           if (c->text.rfind(kEndPrefix, 0) == 0) saw_end_marker = true;
           continue;
         }
@@ -496,6 +511,10 @@ struct RawlogReader::Impl {
 };
 
 RawlogReader::~RawlogReader() = default;
+
+const std::optional<std::string>& RawlogReader::syntheticOdometry() const {
+  return impl_->synthetic_odometry;
+}
 
 std::string imagesDirectoryFor(const std::string& rawlog_path) {
   // MRPT's convention (CRawlog::detectImagesDirectory, whose fallback drops a path separator
@@ -674,6 +693,7 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
     // Find the next stereo observation; odometry and ground truth with its time stamp that
     // come right after it (or right before) belong to the frame.
     std::optional<OdometrySample> odo_before;
+    bool odo_before_synthetic = false;
     mrpt::obs::CObservationStereoImages::Ptr stereo;
     while (!stereo) {
       auto o = impl_->read();
@@ -688,12 +708,16 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       } else if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
         odo_before = OdometrySample{fromMrptTime(od->timestamp),
                                     Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
+        odo_before_synthetic = od->sensorLabel == kSyntheticOdometryLabel;
       }
     }
     *frame = LogFrame();
     frame->index = index_;
     frame->stereo.t_ns = fromMrptTime(stereo->timestamp);
-    if (odo_before && odo_before->t_ns == frame->stereo.t_ns) frame->odometry = odo_before;
+    if (odo_before && odo_before->t_ns == frame->stereo.t_ns) {
+      frame->odometry = odo_before;
+      frame->odometry_synthetic = odo_before_synthetic;
+    }
     if (Status st = checkRectified(*stereo); !st) return fail(st.message());
     if (!sameCalibration(rigFromObservation(*stereo), rig_))
       return fail("stereo calibration differs from the first frame's");
@@ -738,6 +762,7 @@ bool RawlogReader::next(LogFrame* frame, Status* status) {
       if (auto od = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(o)) {
         frame->odometry = OdometrySample{
             frame->stereo.t_ns, Pose2{od->odometry.x(), od->odometry.y(), od->odometry.phi()}};
+        frame->odometry_synthetic = od->sensorLabel == kSyntheticOdometryLabel;
       } else if (auto gp = std::dynamic_pointer_cast<mrpt::obs::CObservationRobotPose>(o)) {
         if (!frame->ground_truth) frame->ground_truth = GroundTruthFrame{};
         frame->ground_truth->t_ns = frame->stereo.t_ns;

@@ -7,7 +7,9 @@
 ///   - CObservationStereoImages, label "STEREO": rectified grey left/right images stored as
 ///     external PNG files in "<log stem>_Images/" (MRPT's external-image convention), with
 ///     intrinsics, baseline and the left camera's pose on the robot filled in;
-///   - CObservationOdometry, label "ODOMETRY": accumulated wheel odometry (x, y, yaw);
+///   - CObservationOdometry, label "ODOMETRY": accumulated wheel odometry (x, y, yaw); label
+///     "ODOMETRY_SYNTHETIC" when the odometry was not measured but drawn from ground truth
+///     (`twocam import-kitti --synthetic-odometry`), and the header comment then says how;
 ///   - ground truth, simulated logs only: CObservationRobotPose, label "GT_POSE" (true body
 ///     pose in the world) and CObservation3DRangeScan, label "GT_DEPTH" (left camera depth
 ///     image along the optical axis, uint16 with rangeUnits metres per unit).
@@ -26,6 +28,8 @@ namespace twocam::io {
 
 inline constexpr const char* kStereoLabel = "STEREO";
 inline constexpr const char* kOdometryLabel = "ODOMETRY";
+/// Label of odometry that no wheel measured (drawn from ground truth with a noise model).
+inline constexpr const char* kSyntheticOdometryLabel = "ODOMETRY_SYNTHETIC";
 inline constexpr const char* kGtPoseLabel = "GT_POSE";
 inline constexpr const char* kGtDepthLabel = "GT_DEPTH";
 
@@ -50,6 +54,11 @@ struct RawlogWriterOptions {
   double depth_unit_m = 0.0;
   /// Largest depth the ground-truth image must represent [m] (used when depth_unit_m = 0).
   double max_depth_m = 60.0;
+  /// Empty: the odometry written is measured (or simulated wheel odometry). Otherwise the
+  /// odometry is synthetic and this one-line note says how it was made; the observations are
+  /// labelled kSyntheticOdometryLabel and the note goes into the log's header, so that readers
+  /// (RawlogReader::syntheticOdometry) and people can tell.
+  std::string synthetic_odometry;
   [[nodiscard]] Status validate() const;
 };
 
@@ -118,6 +127,8 @@ struct LogFrame {
   int index = 0;
   StereoFrame stereo;
   std::optional<OdometrySample> odometry;
+  /// The frame's odometry is synthetic (label kSyntheticOdometryLabel), not measured.
+  bool odometry_synthetic = false;
   std::optional<GroundTruthFrame> ground_truth;
 };
 
@@ -145,6 +156,11 @@ class RawlogReader {
 
   /// Rig of the log (from its first stereo observation).
   const StereoRig& rig() const { return rig_; }
+
+  /// A TwoCam log whose header marks its odometry synthetic: the note saying how it was made
+  /// (RawlogWriterOptions::synthetic_odometry). nullopt for measured or simulated odometry and
+  /// for logs of other tools and of TwoCam versions before the mark.
+  [[nodiscard]] const std::optional<std::string>& syntheticOdometry() const;
 
  private:
   struct Impl;
