@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "import_euroc_command.h"
+#include "import_kitti_command.h"
 #include "run_command.h"
 #include "simulate_command.h"
 #include "stereo_eval_command.h"
@@ -151,6 +152,32 @@ int main(int argc, char** argv) {
       "--max-frames", ie_max_frames, "Import at most this many stereo pairs (the first ones)");
   import_euroc->add_flag("-q,--quiet", ie.quiet, "No progress bar");
 
+  twocam::tools::ImportKittiArgs ik;
+  int ik_max_frames = 0;
+  uint64_t ik_seed = 0;
+  std::string ik_noise;
+  auto* import_kitti = app.add_subcommand(
+      "import-kitti",
+      "Convert a KITTI odometry sequence (image_0|image_l, image_1|image_r, calib.txt, poses.txt) "
+      "into a TwoCam rawlog with ground truth; optionally synthetic wheel odometry");
+  import_kitti
+      ->add_option("dir", ik.input_dir, "KITTI sequence folder (images, calib.txt, poses.txt)")
+      ->required();
+  import_kitti
+      ->add_option(
+          "-o,--output", ik.output_path, "Output rawlog path (images go to <stem>_Images/)")
+      ->required();
+  auto* ik_noise_opt = import_kitti->add_option(
+      "--synthetic-odometry",
+      ik_noise,
+      "Add wheel odometry drawn from the ground-truth increments with the odometry_noise: "
+      "section of this YAML file (a world file's model; the log marks it synthetic)");
+  auto* ik_seed_opt = import_kitti->add_option(
+      "--seed", ik_seed, "Seed of the synthetic odometry's draws (default 1)");
+  auto* ik_max_frames_opt = import_kitti->add_option(
+      "--max-frames", ik_max_frames, "Import at most this many stereo pairs (the first ones)");
+  import_kitti->add_flag("-q,--quiet", ik.quiet, "No progress bar");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -166,6 +193,12 @@ int main(int argc, char** argv) {
     if (import_euroc->parsed()) {
       if (ie_max_frames_opt->count() > 0) ie.max_frames = ie_max_frames;
       return twocam::tools::runImportEuroc(ie);
+    }
+    if (import_kitti->parsed()) {
+      if (ik_max_frames_opt->count() > 0) ik.max_frames = ik_max_frames;
+      if (ik_seed_opt->count() > 0) ik.seed = ik_seed;
+      if (ik_noise_opt->count() > 0) ik.synthetic_odometry = ik_noise;
+      return twocam::tools::runImportKitti(ik);
     }
     if (run_cmd->parsed()) {
       if (run_frames_opt->count() > 0) run.max_frames = run_frames;

@@ -1,0 +1,185 @@
+#include "import_kitti_command.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include "common/stats.h"
+#include "frontend/cv_interop.h"
+#include "io/kitti.h"
+#include "io/rawlog.h"
+#include "progress.h"
+#include "sim/wheel_odometry.h"
+#include "sim/world_io.h"
+
+namespace twocam::tools {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+int fail(std::string message) {
+  // One line, whatever the library put into the message.
+  std::replace(message.begin(), message.end(), '\n', ' ');
+  std::cerr << "twocam import-kitti: error: " << message << std::endl;
+  return 1;
+}
+
+Status loadImage(const std::string& path, const StereoRig& rig, ImageU8* image) {
+  if (Status st = frontend::loadGrey(path, image); !st) return st;
+  if (image->width != rig.width_px || image->height != rig.height_px) {
+    std::ostringstream os;
+    os << "image '" << path << "' is " << image->width << "x" << image->height
+       << " px but the sequence's first left image is " << rig.width_px << "x" << rig.height_px;
+    return Status::error(os.str());
+  }
+  return Status::ok();
+}
+
+double pathLength(const std::vector<Eigen::Isometry3d>& T_w_b) {
+  double s = 0.0;
+  for (size_t k = 1; k < T_w_b.size(); ++k)
+    s += (T_w_b[k].translation() - T_w_b[k - 1].translation()).norm();
+  return s;
+}
+
+}  // namespace
+
+int runImportKitti(const ImportKittiArgs& args) {
+  const auto t_start = std::chrono::steady_clock::now();
+  if (args.max_frames && *args.max_frames < 1)
+    return fail("--max-frames " + std::to_string(*args.max_frames) + ": must be >= 1");
+  if (args.seed && !args.synthetic_odometry)
+    return fail("--seed " + std::to_string(*args.seed) + " needs --synthetic-odometry NOISE.yaml");
+  const uint64_t seed = args.seed.value_or(ImportKittiArgs::kDefaultSeed);
+  std::error_code ec;
+  if (fs::is_directory(args.output_path, ec))
+    return fail("output '" + args.output_path + "' is a folder; give a .rawlog file path");
+
+  io::KittiReadOptions read_options;
+  read_options.max_frames = args.max_frames;
+  io::KittiSequence seq;
+  if (Status st = io::loadKittiSequence(args.input_dir, &seq, read_options); !st)
+    return fail(st.message());
+  const int n = static_cast<int>(seq.left_paths.size());
+
+  // Synthetic odometry is computed up front: a bad noise file fails before anything is written.
+  std::vector<Pose2> odometry;
+  io::RawlogWriterOptions writer_options;
+  if (args.synthetic_odometry) {
+    sim::OdometryNoiseSpec noise;
+    if (Status st = sim::loadOdometryNoise(*args.synthetic_odometry, &noise); !st)
+      return fail(st.message());
+    if (seq.T_w_b.empty()) {
+      return fail("--synthetic-odometry draws from the ground truth, but '" + args.input_dir +
+                  "' has no poses.txt");
+    }
+    odometry = sim::syntheticOdometry(seq.t_ns, seq.T_w_b, noise, seed);
+    writer_options.synthetic_odometry = "drawn from the ground truth with the odometry_noise of " +
+                                        *args.synthetic_odometry + ", seed " +
+                                        std::to_string(seed);
+  }
+
+  // The writer goes through "<output>.partial" and removes it when destroyed unfinished, so
+  // every early return below leaves no log and keeps an older one at the output path.
+  std::unique_ptr<io::RawlogWriter> writer;
+  if (Status st = io::RawlogWriter::open(args.output_path, seq.rig, writer_options, &writer); !st)
+    return fail(st.message());
+
+  std::vector<double> load_ms;
+  std::vector<double> write_ms;
+  ProgressBar bar("import-kitti", n, !args.quiet);
+  StereoFrame frame;
+  for (int k = 0; k < n; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const size_t i = static_cast<size_t>(k);
+    if (Status st = loadImage(seq.left_paths[i], seq.rig, &frame.left); !st)
+      return fail("frame " + std::to_string(k) + ": " + st.message());
+    if (Status st = loadImage(seq.right_paths[i], seq.rig, &frame.right); !st)
+      return fail("frame " + std::to_string(k) + ": " + st.message());
+    const auto t1 = std::chrono::steady_clock::now();
+    frame.t_ns = seq.t_ns[i];
+    OdometrySample odo;
+    if (!odometry.empty()) odo = OdometrySample{frame.t_ns, odometry[i]};
+    GroundTruthFrame gt;
+    if (!seq.T_w_b.empty()) {
+      gt.t_ns = frame.t_ns;
+      gt.T_w_b = seq.T_w_b[i];
+    }
+    if (Status st = writer->write(frame,
+                                  odometry.empty() ? nullptr : &odo,
+                                  seq.T_w_b.empty() ? nullptr : &gt);
+        !st)
+      return fail(st.message());
+    const auto t2 = std::chrono::steady_clock::now();
+    load_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    write_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    bar.update(k + 1);
+  }
+  if (Status st = writer->finish(); !st) return fail(st.message());
+  const double total_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+
+  const StereoRig& rig = seq.rig;
+  std::printf("imported %d of %d stereo pairs from %s into %s (images in %s)\n",
+              n,
+              seq.pairs_available,
+              args.input_dir.c_str(),
+              args.output_path.c_str(),
+              writer->imagesDir().c_str());
+  std::printf(
+      "rectified rig (%s, %s): %dx%d px, fx = %.3f px, fy = %.3f px, cx = %.3f px, cy = %.3f px, "
+      "baseline = %.4f m; left camera at the body origin, looking along body x\n",
+      fs::path(seq.left_dir).filename().c_str(),
+      fs::path(seq.right_dir).filename().c_str(),
+      rig.width_px,
+      rig.height_px,
+      rig.fx_px,
+      rig.fy_px,
+      rig.cx_px,
+      rig.cy_px,
+      rig.baseline_m);
+  const double duration_s = static_cast<double>(seq.t_ns.back() - seq.t_ns.front()) * 1e-9;
+  std::printf("time stamps: %s, %.2f s\n",
+              seq.has_times ? "times.txt" : "10 Hz (no times.txt)",
+              duration_s);
+  if (seq.T_w_b.empty()) {
+    std::printf("ground truth: none (no poses.txt)\n");
+  } else {
+    const Eigen::Vector3d end = seq.T_w_b.back().translation();
+    std::printf(
+        "ground truth: %zu body poses from poses.txt, %.2f m travelled, last at (%.2f, %.2f, "
+        "%.2f) m\n",
+        seq.T_w_b.size(),
+        pathLength(seq.T_w_b),
+        end.x(),
+        end.y(),
+        end.z());
+  }
+  if (odometry.empty()) {
+    std::printf("odometry: none (KITTI has no wheel odometry; --synthetic-odometry adds it)\n");
+  } else {
+    const Pose2 truth = sim::planarPose(seq.T_w_b.back());
+    const Pose2& odo = odometry.back();
+    const double dyaw = std::remainder(odo.yaw_rad - truth.yaw_rad, 2.0 * M_PI);
+    std::printf(
+        "odometry: SYNTHETIC, %s; final error %.3f m, %.2f deg\n",
+        writer_options.synthetic_odometry.c_str(),
+        std::hypot(odo.x_m - truth.x_m, odo.y_m - truth.y_m),
+        dyaw * 180.0 / M_PI);
+  }
+  std::printf("%.2f s in all (%.1f frames/s); per frame median: load %.1f ms, write %.1f ms\n",
+              total_s,
+              total_s > 0.0 ? n / total_s : 0.0,
+              median(load_ms),
+              median(write_ms));
+  return 0;
+}
+
+}  // namespace twocam::tools
