@@ -108,7 +108,9 @@ std::vector<Pose2> syntheticOdometry(const std::vector<int64_t>& t_ns,
     double ds = 0.0;
     double dyaw = 0.0;
     planarIncrement(truth_before, truth, &ds, &dyaw);
-    odometry.advance(ds, dyaw, static_cast<double>(t_ns[k] - t_ns[0]) * 1e-9);
+    // Division, not * 1e-9: exact for whole milliseconds, so a slip at 1.5 s lands on the frame
+    // stamped 1.5 s after the first.
+    odometry.advance(ds, dyaw, static_cast<double>(t_ns[k] - t_ns[0]) / 1e9);
     out.push_back(odometry.pose());
     truth_before = truth;
   }
