@@ -184,7 +184,8 @@ Status checkNames(const std::vector<std::string>& left,
 Status checkCount(const std::string& file, size_t lines, int pairs, bool at_least) {
   if (at_least ? lines >= static_cast<size_t>(pairs) : lines == static_cast<size_t>(pairs))
     return Status::ok();
-  return Status::error(file + " has " + std::to_string(lines) + " lines but " +
+  return Status::error(file + " has " + std::to_string(lines) + (lines == 1 ? " line" : " lines") +
+                       " but " +
                        (at_least ? "at least " : "") + std::to_string(pairs) +
                        " are needed (one per image pair" +
                        (at_least ? " imported" : " in the image folders") + ")");
