@@ -82,8 +82,7 @@ int runImportKitti(const ImportKittiArgs& args) {
     }
     odometry = sim::syntheticOdometry(seq.t_ns, seq.T_w_b, noise, seed);
     writer_options.synthetic_odometry = "drawn from the ground truth with the odometry_noise of " +
-                                        *args.synthetic_odometry + ", seed " +
-                                        std::to_string(seed);
+                                        *args.synthetic_odometry + ", seed " + std::to_string(seed);
   }
 
   // The writer goes through "<output>.partial" and removes it when destroyed unfinished, so
@@ -112,9 +111,8 @@ int runImportKitti(const ImportKittiArgs& args) {
       gt.t_ns = frame.t_ns;
       gt.T_w_b = seq.T_w_b[i];
     }
-    if (Status st = writer->write(frame,
-                                  odometry.empty() ? nullptr : &odo,
-                                  seq.T_w_b.empty() ? nullptr : &gt);
+    if (Status st = writer->write(
+            frame, odometry.empty() ? nullptr : &odo, seq.T_w_b.empty() ? nullptr : &gt);
         !st)
       return fail(st.message());
     const auto t2 = std::chrono::steady_clock::now();
@@ -168,11 +166,10 @@ int runImportKitti(const ImportKittiArgs& args) {
     const Pose2 truth = sim::planarPose(seq.T_w_b.back());
     const Pose2& odo = odometry.back();
     const double dyaw = std::remainder(odo.yaw_rad - truth.yaw_rad, 2.0 * M_PI);
-    std::printf(
-        "odometry: SYNTHETIC, %s; final error %.3f m, %.2f deg\n",
-        writer_options.synthetic_odometry.c_str(),
-        std::hypot(odo.x_m - truth.x_m, odo.y_m - truth.y_m),
-        dyaw * 180.0 / M_PI);
+    std::printf("odometry: SYNTHETIC, %s; final error %.3f m, %.2f deg\n",
+                writer_options.synthetic_odometry.c_str(),
+                std::hypot(odo.x_m - truth.x_m, odo.y_m - truth.y_m),
+                dyaw * 180.0 / M_PI);
   }
   std::printf("%.2f s in all (%.1f frames/s); per frame median: load %.1f ms, write %.1f ms\n",
               total_s,

@@ -155,8 +155,7 @@ Status checkNames(const std::vector<std::string>& left,
                   const std::vector<std::string>& right,
                   const fs::path& left_dir,
                   const fs::path& right_dir) {
-  const auto check_one = [](const std::vector<std::string>& names,
-                            const fs::path& dir) -> Status {
+  const auto check_one = [](const std::vector<std::string>& names, const fs::path& dir) -> Status {
     for (size_t k = 0; k < names.size(); ++k) {
       const std::string want = kittiName(static_cast<int>(k));
       if (names[k] != want) {
@@ -185,8 +184,7 @@ Status checkCount(const std::string& file, size_t lines, int pairs, bool at_leas
   if (at_least ? lines >= static_cast<size_t>(pairs) : lines == static_cast<size_t>(pairs))
     return Status::ok();
   return Status::error(file + " has " + std::to_string(lines) + (lines == 1 ? " line" : " lines") +
-                       " but " +
-                       (at_least ? "at least " : "") + std::to_string(pairs) +
+                       " but " + (at_least ? "at least " : "") + std::to_string(pairs) +
                        " are needed (one per image pair" +
                        (at_least ? " imported" : " in the image folders") + ")");
 }
@@ -309,8 +307,9 @@ Status loadKittiPoses(const std::string& poses_txt, std::vector<Eigen::Isometry3
         (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
     if (!(orthonormality_error < kRotationTol) || !(R.determinant() > 0.0)) {
       std::ostringstream os;
-      os << where(poses_txt, line_no) << "not a rigid transform (|R^T R - I|max = "
-         << orthonormality_error << ", det = " << R.determinant() << ")";
+      os << where(poses_txt, line_no)
+         << "not a rigid transform (|R^T R - I|max = " << orthonormality_error
+         << ", det = " << R.determinant() << ")";
       return Status::error(os.str());
     }
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -336,8 +335,7 @@ Status loadKittiTimes(const std::string& times_txt, std::vector<int64_t>* t_ns) 
       return Status::error(where(times_txt, line_no) + why + " (one time stamp [s] per line)");
     const double t_s = values[0];
     if (!(t_s >= 0.0 && t_s < kMaxTimeS)) {
-      return Status::error(where(times_txt, line_no) + "time " + text +
-                           " s must be in [0, 9e9) s");
+      return Status::error(where(times_txt, line_no) + "time " + text + " s must be in [0, 9e9) s");
     }
     const int64_t t = std::llround(t_s * 1e9);
     if (!out.empty() && t <= out.back()) {
@@ -419,8 +417,8 @@ Status loadKittiSequence(const std::string& dir,
   if (fs::exists(times, ec)) {
     std::vector<int64_t> t_ns;
     if (Status s = loadKittiTimes(times.string(), &t_ns); !s) return s;
-    if (Status s = checkCount(times.string(), t_ns.size(), at_least ? n : seq.pairs_available,
-                              at_least);
+    if (Status s =
+            checkCount(times.string(), t_ns.size(), at_least ? n : seq.pairs_available, at_least);
         !s)
       return s;
     t_ns.resize(static_cast<size_t>(n));
@@ -435,8 +433,8 @@ Status loadKittiSequence(const std::string& dir,
   if (fs::exists(poses, ec)) {
     std::vector<Eigen::Isometry3d> T_w_cam0;
     if (Status s = loadKittiPoses(poses.string(), &T_w_cam0); !s) return s;
-    if (Status s = checkCount(poses.string(), T_w_cam0.size(), at_least ? n : seq.pairs_available,
-                              at_least);
+    if (Status s = checkCount(
+            poses.string(), T_w_cam0.size(), at_least ? n : seq.pairs_available, at_least);
         !s)
       return s;
     T_w_cam0.resize(static_cast<size_t>(n));

@@ -50,9 +50,7 @@ MotionSimulator::MotionSimulator(const RobotSpec& robot,
                                  const OdometryNoiseSpec& noise,
                                  uint64_t seed,
                                  int64_t start_time_ns)
-    : robot_(robot),
-      start_time_ns_(start_time_ns),
-      odometry_(noise, seed, startPose(robot)) {
+    : robot_(robot), start_time_ns_(start_time_ns), odometry_(noise, seed, startPose(robot)) {
   TWOCAM_CHECK(robot_.frame_rate_hz > 0.0) << "frame_rate_hz = " << robot_.frame_rate_hz;
   TWOCAM_CHECK(robot_.speed_mps >= 0.0) << "speed_mps = " << robot_.speed_mps;
   TWOCAM_CHECK(robot_.max_yaw_rate_rps > 0.0) << "max_yaw_rate_rps = " << robot_.max_yaw_rate_rps;

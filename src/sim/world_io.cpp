@@ -597,8 +597,7 @@ Status loadOdometryNoise(const std::string& path, OdometryNoiseSpec* noise) {
     return Status::error("cannot read odometry noise file '" + path + "': it is a directory");
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    return Status::error("cannot read odometry noise file '" + path +
-                         "': " + std::strerror(errno));
+    return Status::error("cannot read odometry noise file '" + path + "': " + std::strerror(errno));
   }
   std::ostringstream text;
   text << in.rdbuf();

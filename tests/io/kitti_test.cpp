@@ -203,8 +203,8 @@ TEST(Kitti, LeftTurnIsPositiveYaw) {
   turned.linear() = Eigen::AngleAxisd(-kTurnRad, Eigen::Vector3d::UnitY()).matrix();
   // After turning left the car drives 2 m along its new heading: forward-left in the world.
   turned.translation() = turned.linear() * Eigen::Vector3d(0.0, 0.0, 2.0);
-  const auto body = kittiBodyPoses({Eigen::Isometry3d::Identity(), turned},
-                                   kittiBodyFromLeftCamera());
+  const auto body =
+      kittiBodyPoses({Eigen::Isometry3d::Identity(), turned}, kittiBodyFromLeftCamera());
   const Eigen::Matrix3d R = body[1].linear();
   EXPECT_NEAR(std::atan2(R(1, 0), R(0, 0)), kTurnRad, kParseTol);
   EXPECT_TRUE(R.col(2).isApprox(Eigen::Vector3d::UnitZ(), kParseTol)) << "z stays up";
@@ -289,7 +289,8 @@ TEST(Kitti, BadCalibrationLinesNameTheFileAndLine) {
     expectError(load(dir, &seq), what);
   };
   expect_calib_error("P0: " + p0 + "\nP1: 1 2 3\n", calib.string() + ":2: P1: expected 12 numbers");
-  expect_calib_error(p0 + "\n" + p1 + " 7\n", calib.string() + ":2: P1: expected 12 numbers, got 13");
+  expect_calib_error(p0 + "\n" + p1 + " 7\n",
+                     calib.string() + ":2: P1: expected 12 numbers, got 13");
   expect_calib_error("P0: " + p0 + "\n" + p1 + "\n", ":2: mixes named lines");
   expect_calib_error("P0: " + p0 + "\nP2: " + p1 + "\n", "no P1");
   expect_calib_error("P0: " + p0 + "\nP1: " + row(projection(kFx * kBaselineM)) + "\n",

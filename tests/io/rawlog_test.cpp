@@ -160,8 +160,8 @@ TEST(Rawlog, SyntheticOdometryIsMarkedAndReadBack) {
   int labelled = 0;
   for (size_t i = 0; i < log.size(); ++i) {
     if (log.getType(i) != mrpt::obs::CRawlog::etObservation) continue;
-    if (auto o = std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(
-            log.getAsObservation(i)))
+    if (auto o =
+            std::dynamic_pointer_cast<mrpt::obs::CObservationOdometry>(log.getAsObservation(i)))
       labelled += o->sensorLabel == kSyntheticOdometryLabel ? 1 : 0;
   }
   EXPECT_EQ(labelled, 3);

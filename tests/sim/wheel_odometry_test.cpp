@@ -194,8 +194,10 @@ TEST(OdometryNoiseFile, ReadsAWorldFilesSectionIdentically) {
   std::string section;
   bool inside = false;
   while (std::getline(in, line)) {
-    if (line.rfind("odometry_noise:", 0) == 0) inside = true;
-    else if (inside && !line.empty() && line[0] != ' ') break;
+    if (line.rfind("odometry_noise:", 0) == 0)
+      inside = true;
+    else if (inside && !line.empty() && line[0] != ' ')
+      break;
     if (inside) section += line + "\n";
   }
   ASSERT_FALSE(section.empty());
@@ -218,8 +220,7 @@ TEST(OdometryNoiseFile, ShippedKittiConfigIsOfficeTimesThreeWithTwoSlips) {
   World world;
   ASSERT_TRUE(loadWorld(test::sourceDir() + "/worlds/office.yaml", &world).isOk());
   OdometryNoiseSpec n;
-  const Status st =
-      loadOdometryNoise(test::sourceDir() + "/configs/kitti_odometry_noise.yaml", &n);
+  const Status st = loadOdometryNoise(test::sourceDir() + "/configs/kitti_odometry_noise.yaml", &n);
   ASSERT_TRUE(st.isOk()) << st.message();
   const OdometryNoiseSpec x3 = scaledOdometryNoise(world.odometry_noise, 3.0);
   EXPECT_NEAR(n.sigma_per_m, x3.sigma_per_m, kExactTol);

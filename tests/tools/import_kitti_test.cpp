@@ -119,9 +119,8 @@ TEST(ImportKitti, ImportsTheSharedSequenceWithSyntheticOdometry) {
   const std::string seq = data + "/kitti_seq_a";
   const std::string dir = test::makeTempDir("import_kitti_seq_a");
   const std::string log = dir + "/kitti.rawlog";
-  const RunResult r =
-      run("import-kitti " + seq + " -o " + log + " --synthetic-odometry " + noiseFile() +
-          " --seed 1");
+  const RunResult r = run("import-kitti " + seq + " -o " + log + " --synthetic-odometry " +
+                          noiseFile() + " --seed 1");
   ASSERT_EQ(r.exit_code, 0) << r.output << r.error;
   std::cout << r.output;
   EXPECT_NE(r.error.find("import-kitti"), std::string::npos) << "progress bar expected on stderr";
@@ -146,9 +145,9 @@ TEST(ImportKitti, ImportsTheSharedSequenceWithSyntheticOdometry) {
     ASSERT_TRUE(f.ground_truth.has_value()) << k;
     EXPECT_TRUE(f.ground_truth->depth_left.empty()) << "KITTI's log has no true depth";
     if (k > 0) {
-      path_m += (f.ground_truth->T_w_b.translation() -
-                 a.frames[k - 1].ground_truth->T_w_b.translation())
-                    .norm();
+      path_m +=
+          (f.ground_truth->T_w_b.translation() - a.frames[k - 1].ground_truth->T_w_b.translation())
+              .norm();
     }
   }
   EXPECT_TRUE(a.frames[0].ground_truth->T_w_b.isApprox(Eigen::Isometry3d::Identity(), kPoseTol));
@@ -178,8 +177,8 @@ TEST(ImportKitti, ImportsTheSharedSequenceWithSyntheticOdometry) {
   for (size_t k = 0; k < a.frames.size(); ++k) {
     EXPECT_EQ(a.frames[k].odometry->pose.x_m, b.frames[k].odometry->pose.x_m) << k;
     EXPECT_EQ(a.frames[k].odometry->pose.yaw_rad, b.frames[k].odometry->pose.yaw_rad) << k;
-    any_difference = any_difference ||
-                     a.frames[k].odometry->pose.x_m != c.frames[k].odometry->pose.x_m;
+    any_difference =
+        any_difference || a.frames[k].odometry->pose.x_m != c.frames[k].odometry->pose.x_m;
   }
   EXPECT_TRUE(any_difference) << "--seed 2 gave --seed 1's odometry";
 
@@ -266,9 +265,9 @@ TEST(ImportKitti, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
   {
     const std::string good = dir + "/good/seq";
     std::ofstream(dir + "/bad_noise.yaml") << "odometry_noise:\n  sigma_per_n: 0.1\n";
-    expectError(run("import-kitti " + good + opts + " --synthetic-odometry " + dir +
-                    "/bad_noise.yaml"),
-                "unknown key 'odometry_noise.sigma_per_n'");
+    expectError(
+        run("import-kitti " + good + opts + " --synthetic-odometry " + dir + "/bad_noise.yaml"),
+        "unknown key 'odometry_noise.sigma_per_n'");
     expect_untouched("bad noise file");
     expectError(run("import-kitti " + good + opts + " --seed 4"), "--seed 4 needs");
     expect_untouched("--seed alone");
