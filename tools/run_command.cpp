@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <string>
 
 #include "eval/run_evaluator.h"
 #include "io/rawlog.h"
@@ -93,6 +95,11 @@ int runRun(const RunArgs& args) {
 
   eval::RunOutputs outputs;
   if (Status s = evaluator.finish(run, &outputs); !s) return fail(s.message());
+  // Odometry that no wheel measured (`twocam import-kitti --synthetic-odometry`): say so in the
+  // metrics and the summary, so that results on it are not mistaken for real odometry.
+  const std::optional<std::string>& synthetic = reader->syntheticOdometry();
+  outputs.metrics["odometry_synthetic"] = synthetic.has_value();
+  if (synthetic) outputs.summary += "odometry: SYNTHETIC (" + *synthetic + ")\n";
   if (outputs.map_evaluated)
     outputs.text_files.emplace_back("world_outline.csv", worldOutlineCsv(world));
   if (Status s = writeRunOutputs(outputs, run, writer.get()); !s) return fail(s.message());

@@ -197,6 +197,37 @@ TEST(ImportKitti, ImportsTheSharedSequenceWithSyntheticOdometry) {
   }
 }
 
+// `twocam run` on an import says the odometry is synthetic (summary and metrics.json) and runs
+// the landmark database on it; on an import without odometry it runs the frontend only.
+TEST(ImportKitti, RunSaysTheOdometryIsSynthetic) {
+  TWOCAM_REQUIRE_SHARED_DATA(data);
+  const std::string seq = data + "/kitti_seq_a";
+  const std::string dir = test::makeTempDir("import_kitti_run");
+  ASSERT_EQ(run("import-kitti " + seq + " -o " + dir + "/syn.rawlog --max-frames 8 -q" +
+                " --synthetic-odometry " + noiseFile())
+                .exit_code,
+            0);
+  ASSERT_EQ(run("import-kitti " + seq + " -o " + dir + "/plain.rawlog --max-frames 8 -q").exit_code,
+            0);
+  const RunResult r = run("run " + dir + "/syn.rawlog -o " + dir + "/syn_run -q --no-pictures");
+  ASSERT_EQ(r.exit_code, 0) << r.output << r.error;
+  EXPECT_NE(r.output.find("odometry: SYNTHETIC (drawn from the ground truth"), std::string::npos)
+      << r.output;
+  const std::string metrics = readFile(dir + "/syn_run/metrics.json");
+  EXPECT_NE(metrics.find("\"odometry\": true"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("\"odometry_synthetic\": true"), std::string::npos) << metrics;
+
+  const RunResult p = run("run " + dir + "/plain.rawlog -o " + dir + "/plain_run -q --no-pictures");
+  ASSERT_EQ(p.exit_code, 0) << p.output << p.error;
+  EXPECT_EQ(p.output.find("SYNTHETIC"), std::string::npos) << p.output;
+  EXPECT_NE(p.error.find("has no odometry: running the frontend only"), std::string::npos)
+      << p.error;
+  const std::string plain_metrics = readFile(dir + "/plain_run/metrics.json");
+  EXPECT_NE(plain_metrics.find("\"odometry\": false"), std::string::npos) << plain_metrics;
+  EXPECT_NE(plain_metrics.find("\"odometry_synthetic\": false"), std::string::npos)
+      << plain_metrics;
+}
+
 // Every error: one line, exit 1, no log and no partial files; an earlier log at the output path
 // and its images survive untouched.
 TEST(ImportKitti, ErrorsLeaveNoLogAndKeepAnEarlierOne) {
