@@ -42,6 +42,22 @@ Status loadImage(const std::string& path, const StereoRig& rig, ImageU8* image) 
   return Status::ok();
 }
 
+/// The effective noise model in one line, so that the log's header says exactly what was drawn
+/// (the file may change after the import).
+std::string describeNoise(const sim::OdometryNoiseSpec& n) {
+  std::ostringstream os;
+  os << "sigma_per_m " << n.sigma_per_m << ", sigma_per_rad " << n.sigma_per_rad << ", scale_error "
+     << n.scale_error << ", wheel_base_error " << n.wheel_base_error
+     << ", slips (time_s dx_m dy_m dyaw_deg) [";
+  for (size_t i = 0; i < n.slips.size(); ++i) {
+    const sim::SlipEvent& s = n.slips[i];
+    os << (i > 0 ? "; " : "") << s.time_s << " " << s.dx_m << " " << s.dy_m << " "
+       << s.dyaw_rad * 180.0 / M_PI;
+  }
+  os << "]";
+  return os.str();
+}
+
 double pathLength(const std::vector<Eigen::Isometry3d>& T_w_b) {
   double s = 0.0;
   for (size_t k = 1; k < T_w_b.size(); ++k)
@@ -82,7 +98,8 @@ int runImportKitti(const ImportKittiArgs& args) {
     }
     odometry = sim::syntheticOdometry(seq.t_ns, seq.T_w_b, noise, seed);
     writer_options.synthetic_odometry = "drawn from the ground truth with the odometry_noise of " +
-                                        *args.synthetic_odometry + ", seed " + std::to_string(seed);
+                                        *args.synthetic_odometry + " (" + describeNoise(noise) +
+                                        "), seed " + std::to_string(seed);
   }
 
   // The writer goes through "<output>.partial" and removes it when destroyed unfinished, so

@@ -1,7 +1,6 @@
 #include "io/kitti.h"
 
 #include <algorithm>
-#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>

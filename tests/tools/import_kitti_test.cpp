@@ -136,6 +136,9 @@ TEST(ImportKitti, ImportsTheSharedSequenceWithSyntheticOdometry) {
   ASSERT_TRUE(a.synthetic.has_value());
   EXPECT_NE(a.synthetic->find("seed 1"), std::string::npos) << *a.synthetic;
   EXPECT_NE(a.synthetic->find("kitti_odometry_noise.yaml"), std::string::npos) << *a.synthetic;
+  EXPECT_NE(a.synthetic->find("scale_error 0.03"), std::string::npos)
+      << "the header holds the effective model: " << *a.synthetic;
+  EXPECT_NE(a.synthetic->find("[1.5 0.1 0 0; 3.5 0 0 3]"), std::string::npos) << *a.synthetic;
   double path_m = 0.0;
   for (size_t k = 0; k < a.frames.size(); ++k) {
     const io::LogFrame& f = a.frames[k];
