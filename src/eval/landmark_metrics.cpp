@@ -127,7 +127,10 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
       hyp_true_ += std::abs(h.d_px - d_gt) <= kTruthTolPx ? 1 : 0;
     }
   }
-  for (uint64_t id : report.removed_ids) anchors_.erase(id);
+  for (uint64_t id : report.removed_ids) {
+    anchors_.erase(id);
+    confirmed_true_w_.erase(id);
+  }
   for (uint64_t id : report.created_ids) {
     const landmarks::Landmark* created = find(id);
     if (created == nullptr) {
@@ -169,7 +172,56 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
         patchStdDevGrey(left, l.anchor.u_px, l.anchor.v_px, kTexturePatchRadius));
     anchors_[l.id] = t;
   }
+  tallyDuplicates(report, T_w_b_true);
   return Status::ok();
+}
+
+void LandmarkEvaluator::tallyDuplicates(const landmarks::FrameReport& report,
+                                        const Eigen::Isometry3d& T_w_b_true) {
+  std::vector<std::pair<uint64_t, Eigen::Vector3f>> fresh;
+  for (uint64_t id : report.confirmed_ids) {
+    const auto it = anchors_.find(id);
+    if (it != anchors_.end() && it->second.valid) fresh.emplace_back(id, it->second.p_true_w);
+  }
+  if (fresh.empty()) return;
+  const Eigen::Isometry3d T_cl_w = (T_w_b_true * rig_.T_b_cl).inverse();
+  const auto project = [&](const Eigen::Vector3f& p_w, Eigen::Vector3d* uvd) {
+    return landmarks::projectStereo(rig_, T_cl_w * p_w.cast<double>(), uvd) && uvd->x() >= -1.0 &&
+           uvd->y() >= -1.0 && uvd->x() <= rig_.width_px + 1.0 && uvd->y() <= rig_.height_px + 1.0;
+  };
+  // The older confirmed landmarks' true points in this frame's true camera, binned by pixel.
+  std::unordered_map<int64_t, std::vector<Eigen::Vector3d>> bins;
+  const auto bin_key = [](int64_t u, int64_t v) { return (v << 20) ^ (u & 0xFFFFF); };
+  Eigen::Vector3d uvd;
+  for (const auto& [id, p_w] : confirmed_true_w_) {
+    if (project(p_w, &uvd)) {
+      bins[bin_key(std::lround(uvd.x()), std::lround(uvd.y()))].push_back(uvd);
+    }
+  }
+  for (const auto& [id, p_w] : fresh) {
+    ++confirmations_judged_;
+    bool duplicate = false;
+    if (project(p_w, &uvd)) {
+      const int64_t u0 = std::lround(uvd.x()), v0 = std::lround(uvd.y());
+      for (int64_t dv = -2; dv <= 2 && !duplicate; ++dv) {
+        for (int64_t du = -2; du <= 2 && !duplicate; ++du) {
+          const auto b = bins.find(bin_key(u0 + du, v0 + dv));
+          if (b == bins.end()) continue;
+          for (const Eigen::Vector3d& o : b->second) {
+            if (std::abs(o.x() - uvd.x()) <= kTruthTolPx &&
+                std::abs(o.y() - uvd.y()) <= kTruthTolPx &&
+                std::abs(o.z() - uvd.z()) <= kTruthTolPx) {
+              duplicate = true;
+              break;
+            }
+          }
+        }
+      }
+    }
+    duplicates_ += duplicate ? 1 : 0;
+  }
+  // Added after the check: landmarks confirmed in the same frame are not older than each other.
+  for (const auto& [id, p_w] : fresh) confirmed_true_w_[id] = p_w;
 }
 
 int LandmarkEvaluator::verdict(const landmarks::Landmark& l) const {
@@ -239,7 +291,7 @@ LandmarkMetrics LandmarkEvaluator::finish(const std::vector<landmarks::Landmark>
       hyp_judged_ > 0 ? static_cast<double>(hyp_true_) / static_cast<double>(hyp_judged_)
                       : std::numeric_limits<double>::quiet_NaN();
   m.frontend = frontend_.metrics();
-  std::vector<double> errors;
+  std::vector<double> errors, map_errors;
   std::vector<double> frames_to_confirm;
   std::vector<Eigen::Vector3f> correct_points;
   std::vector<CalibrationRow> rows;
@@ -291,6 +343,7 @@ LandmarkMetrics LandmarkEvaluator::finish(const std::vector<landmarks::Landmark>
     m.correct_confirmed_strict += v;
     if (v == 1) correct_points.push_back(anchors_.at(l.id).p_true_w);
     errors.push_back(errorM(l));
+    map_errors.push_back((l.p_w - anchors_.at(l.id).p_true_w.cast<double>()).norm());
   }
   m.correct_distinct_points = countDistinctPoints(correct_points, kSamePointM);
   // METRICS.md "Depth edges": an unjudged landmark on the near or the far surface is correct.
@@ -300,6 +353,13 @@ LandmarkMetrics LandmarkEvaluator::finish(const std::vector<landmarks::Landmark>
   m.precision_judged = percent(m.correct_confirmed_strict, m.confirmed - m.unjudged_confirmed);
   m.median_error_m = quantile(errors, 0.5);
   m.p90_error_m = quantile(errors, 0.9);
+  m.map_error_median_m = quantile(map_errors, 0.5);
+  m.map_error_p90_m = quantile(map_errors, 0.9);
+  m.confirmations_judged = confirmations_judged_;
+  m.duplicates = duplicates_;
+  m.duplicate_fraction = confirmations_judged_ > 0 ? static_cast<double>(duplicates_) /
+                                                         static_cast<double>(confirmations_judged_)
+                                                   : std::numeric_limits<double>::quiet_NaN();
   m.frames_to_confirm_median = quantile(frames_to_confirm, 0.5);
   for (CalibrationRow& r : rows) r.precision = percent(r.correct, r.landmarks);
   m.calibration = rows;
@@ -340,6 +400,11 @@ io::Json toJson(const LandmarkMetrics& m) {
                     {"candidates", m.candidates},
                     {"median_error_m", numberOrNull(m.median_error_m)},
                     {"p90_error_m", numberOrNull(m.p90_error_m)},
+                    {"map_error_median_m", numberOrNull(m.map_error_median_m)},
+                    {"map_error_p90_m", numberOrNull(m.map_error_p90_m)},
+                    {"duplicate_fraction", numberOrNull(m.duplicate_fraction)},
+                    {"duplicates", m.duplicates},
+                    {"confirmations_judged", m.confirmations_judged},
                     {"frames_to_confirm_median", numberOrNull(m.frames_to_confirm_median)}};
   Json calibration = Json::array();
   for (const CalibrationRow& r : m.calibration) {

@@ -96,6 +96,20 @@ struct LandmarkMetrics {
   double precision_judged = 0.0;
   double median_error_m = 0.0;
   double p90_error_m = 0.0;
+  /// METRICS.md landmarks.map_error_*: distance between each judged confirmed landmark's
+  /// position in the robot's world frame and its true point in the true world, with no alignment
+  /// beyond the shared start pose [m] (the map as a map: the drift of the poses it was built with
+  /// included). NaN when no confirmed landmark has a true point.
+  double map_error_median_m = 0.0;
+  double map_error_p90_m = 0.0;
+  /// METRICS.md landmarks.duplicate_fraction: of the confirmations during the run of landmarks
+  /// with a true point (`confirmations_judged`), those (`duplicates`) whose true point, projected
+  /// into the true camera of the confirming frame, lies within 1 px in u and v and 1 px of
+  /// disparity of the projected true point of an older confirmed landmark still in the database:
+  /// that one should have been re-associated. NaN when there were no such confirmations.
+  int64_t confirmations_judged = 0;
+  int64_t duplicates = 0;
+  double duplicate_fraction = 0.0;
   double frames_to_confirm_median = 0.0;
   int64_t candidates = 0;
   std::vector<CalibrationRow> calibration;
@@ -175,9 +189,17 @@ class LandmarkEvaluator {
     /// True 3D point of the anchor pixel in the true world frame [m] (valid anchors only).
     Eigen::Vector3f p_true_w = Eigen::Vector3f::Zero();
   };
+  /// Counts this frame's confirmations that duplicate an older confirmed landmark (see
+  /// LandmarkMetrics::duplicate_fraction) and adds them to confirmed_true_w_.
+  void tallyDuplicates(const landmarks::FrameReport& report, const Eigen::Isometry3d& T_w_b_true);
+
   StereoRig rig_;
   DisparityGroundTruth gt_;
   std::unordered_map<uint64_t, AnchorTruth> anchors_;
+  /// True points of the confirmed landmarks still in the database that have one, by id.
+  std::unordered_map<uint64_t, Eigen::Vector3f> confirmed_true_w_;
+  int64_t confirmations_judged_ = 0;
+  int64_t duplicates_ = 0;
   int64_t hyp_total_ = 0;
   int64_t hyp_judged_ = 0;
   int64_t hyp_true_ = 0;

@@ -16,6 +16,9 @@ namespace {
 using io::Json;
 using io::numberOrNull;
 
+/// METRICS.md trajectory.rpe_*: pairs of poses this far apart in true travel [m].
+constexpr double kRpeSegmentM = 1.0;
+
 /// A hypothesis in sample_frame/hypotheses.csv is true within this disparity error [px].
 constexpr float kTruthTolPx = 1.0f;
 
@@ -40,18 +43,22 @@ std::string voxelsCsv(const std::vector<mapping::Voxel>& voxels) {
 Json mapMetricsJson(const MapMetrics& m) {
   return {{"occupied", m.occupied},
           {"phantom", m.phantom},
-          {"phantom_fraction", numberOrNull(m.phantom_fraction)}};
+          {"phantom_fraction", numberOrNull(m.phantom_fraction)},
+          {"completeness", numberOrNull(m.completeness)},
+          {"observable_voxels", m.observable},
+          {"held_voxels", m.held}};
 }
 
 std::string timingsCsv(const std::vector<pipeline::FrameRecord>& records) {
   std::ostringstream csv;
   csv << std::setprecision(6)
-      << "frame,frontend_ms,landmarks_ms,mapping_ms,total_ms,corners,hypotheses,candidates,"
-         "confirmed\n";
+      << "frame,frontend_ms,landmarks_ms,localization_ms,mapping_ms,total_ms,corners,hypotheses,"
+         "candidates,confirmed,confirmations,reassociated\n";
   for (const pipeline::FrameRecord& r : records) {
     csv << r.frame << ',' << r.times.frontend_ms << ',' << r.times.landmarks_ms << ','
-        << r.times.mapping_ms << ',' << r.times.totalMs() << ',' << r.corners << ',' << r.hypotheses
-        << ',' << r.candidates << ',' << r.confirmed << '\n';
+        << r.times.localization_ms << ',' << r.times.mapping_ms << ',' << r.times.totalMs() << ','
+        << r.corners << ',' << r.hypotheses << ',' << r.candidates << ',' << r.confirmed << ','
+        << r.confirmations << ',' << r.reassociated << '\n';
   }
   return csv.str();
 }
@@ -150,13 +157,59 @@ Json slipsJson(const std::vector<sim::SlipEvent>& events,
           {"flagged_frames", flagged}};
 }
 
+/// Per processed frame: the pose source and its errors against the true track (empty cells
+/// without ground truth for the frame).
+std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io::TimedPose>& gt) {
+  std::ostringstream csv;
+  csv << std::setprecision(9)
+      << "frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m\n";
+  size_t next_flag = 0;
+  for (size_t i = 0; i < s.pose_track.size() && i < s.records.size(); ++i) {
+    const int32_t frame = s.records[i].frame;
+    bool flagged = false;
+    while (next_flag < s.slip_frames.size() && s.slip_frames[next_flag] <= frame) {
+      flagged = flagged || s.slip_frames[next_flag] == frame;
+      ++next_flag;
+    }
+    csv << frame << ',' << static_cast<double>(s.pose_track[i].t_ns - s.first_t_ns) * 1e-9 << ','
+        << static_cast<int>(s.visual[i]) << ',' << s.landmarks_used[i] << ',' << (flagged ? 1 : 0)
+        << ',';
+    if (i < gt.size()) {
+      csv << (s.odom_track[i].T_w_b.translation() - gt[i].T_w_b.translation()).norm() << ','
+          << (s.pose_track[i].T_w_b.translation() - gt[i].T_w_b.translation()).norm();
+    } else {
+      csv << ',';
+    }
+    csv << '\n';
+  }
+  return csv.str();
+}
+
+/// The world's slip events with the frame each belongs to (as slipsJson decides it).
+std::string slipEventsCsv(const std::vector<sim::SlipEvent>& events, double frame_rate_hz) {
+  std::ostringstream csv;
+  csv << std::setprecision(9) << "frame,time_s,dx_m,dy_m,dyaw_deg\n";
+  for (const sim::SlipEvent& e : events) {
+    csv << static_cast<int32_t>(std::ceil(e.time_s * frame_rate_hz - 1e-9)) << ',' << e.time_s
+        << ',' << e.dx_m << ',' << e.dy_m << ',' << e.dyaw_rad * 180.0 / M_PI << '\n';
+  }
+  return csv.str();
+}
+
 }  // namespace
 
 RunEvaluator::RunEvaluator(const StereoRig& rig,
                            const pipeline::PipelineConfig& config,
                            Inputs inputs)
     : rig_(rig), config_(config), inputs_(std::move(inputs)), landmarks_(rig) {
-  if (inputs_.world) eval_mapper_ = std::make_unique<mapping::OccupancyMapper>(config_.mapping);
+  if (inputs_.world) {
+    oracle_map_ = std::make_unique<ReplacedMap>(config_.mapping);
+    if (config_.localization.mode != localization::Mode::kOdometry) {
+      odometry_map_ = std::make_unique<ReplacedMap>(config_.mapping);
+    }
+    observable_ = std::make_unique<ObservableVoxels>(
+        rig_, config_.mapping.resolution_m, config_.mapping.max_range_m);
+  }
 }
 
 RunEvaluator::~RunEvaluator() = default;
@@ -179,9 +232,11 @@ Status RunEvaluator::addFrame(const pipeline::RunFrame& f) {
           !s) {
         return s;
       }
-      if (eval_mapper_) {
-        if (Status s = addToEvaluationMap(f, gt->T_w_b); !s) return s;
+      if (oracle_map_) oracle_map_->addFrame(f, gt->T_w_b);
+      if (odometry_map_ && f.log.odometry) {
+        odometry_map_->addFrame(f, toIsometry(f.log.odometry->pose));
       }
+      if (observable_) observable_->addFrame(gt->depth_left, gt->T_w_b);
     } else {
       has_gt_ = false;
     }
@@ -190,16 +245,14 @@ Status RunEvaluator::addFrame(const pipeline::RunFrame& f) {
   return Status::ok();
 }
 
-Status RunEvaluator::addToEvaluationMap(const pipeline::RunFrame& f,
-                                        const Eigen::Isometry3d& T_w_b_true) {
-  // Each landmark is placed with the correction (true pose x odometry pose^-1) of its anchor
-  // frame, where its position was measured; the ray starts at the true camera.
-  const Eigen::Isometry3d T_true_odom = T_w_b_true * toIsometry(f.output.pose).inverse();
+void RunEvaluator::ReplacedMap::addFrame(const pipeline::RunFrame& f,
+                                         const Eigen::Isometry3d& T_w_b_target) {
+  const Eigen::Isometry3d T_target_used = T_w_b_target * toIsometry(f.output.pose).inverse();
   const auto index = static_cast<size_t>(f.log.index);
-  if (index >= T_true_odom_by_frame_.size()) {
-    T_true_odom_by_frame_.resize(index + 1, Eigen::Isometry3d::Identity());
+  if (index >= T_target_used_by_frame.size()) {
+    T_target_used_by_frame.resize(index + 1, Eigen::Isometry3d::Identity());
   }
-  T_true_odom_by_frame_[index] = T_true_odom;
+  T_target_used_by_frame[index] = T_target_used;
   const pipeline::FrameOutput& fo = f.output;
   const landmarks::LandmarkDatabase& db = f.pipeline.database();
   std::vector<Eigen::Vector3d> pts;
@@ -207,19 +260,18 @@ Status RunEvaluator::addToEvaluationMap(const pipeline::RunFrame& f,
   for (size_t i = 0; i < fo.mapped_points_w.size(); ++i) {
     const landmarks::Landmark* l = db.find(fo.mapped_ids[i]);
     const int32_t anchor = l != nullptr ? l->anchor.frame : -1;
-    const bool known = anchor >= 0 && static_cast<size_t>(anchor) < T_true_odom_by_frame_.size();
-    pts.push_back((known ? T_true_odom_by_frame_[static_cast<size_t>(anchor)] : T_true_odom) *
+    const bool known = anchor >= 0 && static_cast<size_t>(anchor) < T_target_used_by_frame.size();
+    pts.push_back((known ? T_target_used_by_frame[static_cast<size_t>(anchor)] : T_target_used) *
                   fo.mapped_points_w[i]);
   }
-  const Eigen::Vector3d o = T_true_odom * fo.camera_origin_w;
+  const Eigen::Vector3d o = T_target_used * fo.camera_origin_w;
   octomap::OcTreeKey key;
-  if (eval_mapper_->tree().coordToKeyChecked(
+  if (mapper.tree().coordToKeyChecked(
           octomap::point3d(
               static_cast<float>(o.x()), static_cast<float>(o.y()), static_cast<float>(o.z())),
           key)) {
-    eval_mapper_->insertFrame(o, pts);
+    mapper.insertFrame(o, pts);
   }
-  return Status::ok();
 }
 
 void RunEvaluator::takeSample(const pipeline::RunFrame& f, const GroundTruthFrame* gt) {
@@ -306,19 +358,28 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   const std::string mode = localization::modeName(config_.localization.mode);
   *out = RunOutputs{};
 
-  // ---- map: the odometry map and, with a world and ground truth, the evaluation map ----------
+  // ---- map: the map as built and, with a world and ground truth, its evaluations ------------
   const std::vector<mapping::Voxel> voxels = pipe.mapper().occupiedVoxels();
-  std::optional<MapMetrics> map_eval, map_eval_odom;
+  std::optional<MapMetrics> map_built, map_oracle, map_odom;
   std::ostringstream eval_voxels_csv;
   if (inputs_.world && has_gt) {
-    const std::vector<mapping::Voxel> ev = eval_mapper_->occupiedVoxels();
     std::vector<double> dist;
-    map_eval = evaluateMap(ev, *inputs_.world, resolution_m, &dist);
-    map_eval_odom = evaluateMap(voxels, *inputs_.world, resolution_m);
+    map_built = evaluateMap(voxels, *inputs_.world, resolution_m, &dist);
+    measureCompleteness(voxels, *observable_, &*map_built);
+    const std::vector<mapping::Voxel> oracle = oracle_map_->mapper.occupiedVoxels();
+    map_oracle = evaluateMap(oracle, *inputs_.world, resolution_m);
+    measureCompleteness(oracle, *observable_, &*map_oracle);
+    if (odometry_map_) {
+      const std::vector<mapping::Voxel> odom = odometry_map_->mapper.occupiedVoxels();
+      map_odom = evaluateMap(odom, *inputs_.world, resolution_m);
+      measureCompleteness(odom, *observable_, &*map_odom);
+    } else {
+      map_odom = map_built;  // odometry mode: the robot's map is the odometry-frame map
+    }
     eval_voxels_csv << std::setprecision(9) << "x,y,z,size,distance_m,phantom\n";
-    for (size_t i = 0; i < ev.size(); ++i) {
-      eval_voxels_csv << ev[i].centre_m.x() << ',' << ev[i].centre_m.y() << ','
-                      << ev[i].centre_m.z() << ',' << ev[i].size_m << ',' << dist[i] << ','
+    for (size_t i = 0; i < voxels.size(); ++i) {
+      eval_voxels_csv << voxels[i].centre_m.x() << ',' << voxels[i].centre_m.y() << ','
+                      << voxels[i].centre_m.z() << ',' << voxels[i].size_m << ',' << dist[i] << ','
                       << (dist[i] > 2.0 * resolution_m ? 1 : 0) << '\n';
     }
   }
@@ -347,12 +408,13 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                   {"points_inserted", ms.points_inserted},
                   {"points_beyond_range", ms.points_beyond_range},
                   {"frames_outside_map", s.frames_outside_map}};
-  if (map_eval) {
-    m["octomap"] = {{"resolution_m", numberOrNull(resolution_m)},
-                    {"occupied", map_eval->occupied},
-                    {"phantom", map_eval->phantom},
-                    {"phantom_fraction", numberOrNull(map_eval->phantom_fraction)},
-                    {"odometry_frame", mapMetricsJson(*map_eval_odom)}};
+  if (map_built) {
+    Json octomap = mapMetricsJson(*map_built);
+    octomap["resolution_m"] = numberOrNull(resolution_m);
+    octomap["frame"] = localizing ? "estimated" : "odometry";
+    octomap["oracle_poses"] = mapMetricsJson(*map_oracle);
+    octomap["odometry_frame"] = mapMetricsJson(*map_odom);
+    m["octomap"] = octomap;
   } else {
     // Said, not omitted: why there is no map evaluation.
     const std::string why = !s.odometry_mode ? "the log has no odometry, so there is no map"
@@ -373,7 +435,26 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
       ate_json[mode] = numberOrNull(ate_est);
       final_json[mode] = numberOrNull(finalError(s.pose_track, gt_track_));
     }
-    m["trajectory"] = {{"ate_rmse_m", ate_json}, {"final_error_m", final_json}};
+    Json rpe_t = Json::object(), rpe_r = Json::object(), rpe_n = Json::object();
+    const auto add_rpe = [&](const std::string& track,
+                             const std::vector<io::TimedPose>& poses) -> Status {
+      RelativePoseError rpe;
+      if (Status st = relativePoseError(poses, gt_track_, kRpeSegmentM, &rpe); !st) return st;
+      rpe_t[track] = numberOrNull(rpe.trans_pct);
+      rpe_r[track] = numberOrNull(rpe.rot_deg_per_m);
+      rpe_n[track] = rpe.pairs;
+      return Status::ok();
+    };
+    if (Status st = add_rpe("odometry", s.odom_track); !st) return st;
+    if (localizing) {
+      if (Status st = add_rpe(mode, s.pose_track); !st) return st;
+    }
+    m["trajectory"] = {{"ate_rmse_m", ate_json},
+                       {"final_error_m", final_json},
+                       {"rpe_trans_pct", rpe_t},
+                       {"rpe_rot_deg_per_m", rpe_r},
+                       {"rpe_pairs", rpe_n},
+                       {"rpe_segment_m", kRpeSegmentM}};
     if (localizing && inputs_.world) {
       m["slips"] = slipsJson(inputs_.world->odometry_noise.slips,
                              inputs_.world->robot.frame_rate_hz,
@@ -428,12 +509,18 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                                        ": body pose in the robot's world frame (planar part)"));
     }
   }
+  if (s.odometry_mode) files.emplace_back("localization.csv", localizationCsv(s, gt_track_));
+  if (localizing && has_gt && inputs_.world) {
+    files.emplace_back(
+        "slip_events.csv",
+        slipEventsCsv(inputs_.world->odometry_noise.slips, inputs_.world->robot.frame_rate_hz));
+  }
   if (has_gt) {
     files.emplace_back("trajectory_gt.tum",
                        io::toTum(gt_track_, "ground truth: body pose in the world frame"));
   }
-  if (map_eval) files.emplace_back("map_eval_voxels.csv", eval_voxels_csv.str());
-  out->map_evaluated = map_eval.has_value();
+  if (map_built) files.emplace_back("map_eval_voxels.csv", eval_voxels_csv.str());
+  out->map_evaluated = map_built.has_value();
   if (sample_taken_) {
     out->sample_taken = true;
     out->pngs.push_back({"sample_frame/left.png", sample_left_});
@@ -456,9 +543,12 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
     sum << "landmarks: " << db.numConfirmed() << " confirmed, " << db.numCandidates()
         << " candidates (no ground truth)\n";
   }
-  if (map_eval) {
-    sum << "map: " << map_eval->occupied << " occupied voxels at " << resolution_m << " m, "
-        << map_eval->phantom << " phantom (" << 100.0 * map_eval->phantom_fraction << " %)\n";
+  if (map_built) {
+    sum << "map (" << (localizing ? "estimated" : "odometry") << " poses): " << map_built->occupied
+        << " occupied voxels at " << resolution_m << " m, " << map_built->phantom << " phantom ("
+        << 100.0 * map_built->phantom_fraction << " %), completeness "
+        << 100.0 * map_built->completeness << " %; with the true poses " << map_oracle->phantom
+        << " phantom (" << 100.0 * map_oracle->phantom_fraction << " %)\n";
   } else if (s.odometry_mode) {
     sum << "map: " << voxels.size() << " occupied voxels at " << resolution_m << " m\n";
   }

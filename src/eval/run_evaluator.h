@@ -1,8 +1,9 @@
 #pragma once
 /// Evaluation and output schema of one `twocam run` (docs/run.md): fed frame by frame beside
 /// pipeline::Run, it judges the frames against the log's ground truth (landmark_metrics.h),
-/// builds the evaluation map (the same rays placed with the true poses, so that phantom voxels
-/// measure wrong landmarks, not odometry drift), draws the sample frame, and at the end turns
+/// measures the map the robot built against the world and builds the same map again with the
+/// true poses (so that phantom voxels there measure wrong landmarks, not pose error) and with
+/// the odometry poses, draws the sample frame, and at the end turns
 /// everything into the run's files: landmarks.csv, metrics.json (as a JSON value), timings,
 /// trajectories, voxel lists, and the summary lines printed by the CLI.
 ///
@@ -72,8 +73,15 @@ class RunEvaluator {
   [[nodiscard]] Status finish(const pipeline::Run& run, RunOutputs* out) const;
 
  private:
-  [[nodiscard]] Status addToEvaluationMap(const pipeline::RunFrame& frame,
-                                          const Eigen::Isometry3d& T_w_b_true);
+  /// The run's mapped rays placed again with other poses (the true ones, or odometry's): each
+  /// landmark moves with the correction (target pose x used pose^-1) of its anchor frame, where
+  /// its position was measured, and the ray starts at the target camera.
+  struct ReplacedMap {
+    explicit ReplacedMap(const mapping::MappingOptions& options) : mapper(options) {}
+    void addFrame(const pipeline::RunFrame& frame, const Eigen::Isometry3d& T_w_b_target);
+    mapping::OccupancyMapper mapper;
+    std::vector<Eigen::Isometry3d> T_target_used_by_frame;
+  };
   void takeSample(const pipeline::RunFrame& frame, const GroundTruthFrame* gt);
   [[nodiscard]] std::string landmarksCsv(const landmarks::LandmarkDatabase& db, bool has_gt) const;
 
@@ -81,10 +89,12 @@ class RunEvaluator {
   pipeline::PipelineConfig config_;
   Inputs inputs_;
   LandmarkEvaluator landmarks_;
-  std::unique_ptr<mapping::OccupancyMapper> eval_mapper_;
-  /// Correction true pose x odometry pose^-1 by frame index, for placing each landmark with the
-  /// one of its anchor frame (evaluation map only).
-  std::vector<Eigen::Isometry3d> T_true_odom_by_frame_;
+  /// With a world: the map built with the true poses (octomap.oracle_poses) and, when the run
+  /// localises, with the odometry poses (octomap.odometry_frame; in odometry mode that is the
+  /// run's own map); the observable surface voxels (octomap.completeness).
+  std::unique_ptr<ReplacedMap> oracle_map_;
+  std::unique_ptr<ReplacedMap> odometry_map_;
+  std::unique_ptr<ObservableVoxels> observable_;
   std::vector<io::TimedPose> gt_track_;
   bool has_gt_ = true;
   bool sample_taken_ = false;

@@ -87,8 +87,10 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   report->predicted_visible = report->associated = report->seeded = 0;
   report->confirmed = report->pruned = report->refined = 0;
   report->probed = report->probe_found = 0;
+  report->reassociated = 0;
   report->created_ids.clear();
   report->associated_ids.clear();
+  report->confirmed_ids.clear();
   report->created_hypotheses.clear();
   report->removed_ids.clear();
   report->hypothesis_landmark_id.assign(hyps.hypotheses.size(), 0);
@@ -160,7 +162,8 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   return Status::ok();
 }
 
-Status LandmarkDatabase::correctFramePose(const Pose2& pose) {
+Status LandmarkDatabase::correctFramePose(const Pose2& pose,
+                                          const std::optional<OdometryErrorSigma>& sigma) {
   TWOCAM_CHECK(frame_hyps_ != nullptr) << "correctFramePose outside a frame";
   if (!std::isfinite(pose.x_m) || !std::isfinite(pose.y_m) || !std::isfinite(pose.yaw_rad)) {
     return Status::error("frame " + std::to_string(frame_) + ": corrected pose is not finite");
@@ -176,12 +179,89 @@ Status LandmarkDatabase::correctFramePose(const Pose2& pose) {
     Landmark& l = slots_[o.slot];
     if (!l.observations.empty() && l.observations.back().frame == frame_)
       l.observations.back().odom_pose = pose;
+    if (map_frame_predictions_ && l.state == LandmarkState::kConfirmed) continue;
     if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(o.u_px, o.v_px), o.d_px)) {
       l.p_w_last = T_w_cl_ * *p_cl;
       hot_[o.slot].p_w_last = l.p_w_last;
     }
   }
+  if (sigma) reassociateConfirmed(*sigma);
   return Status::ok();
+}
+
+void LandmarkDatabase::reassociateConfirmed(const OdometryErrorSigma& sigma) {
+  const StereoHypotheses& hyps = *frame_hyps_;
+  FrameReport* report = frame_report_;
+  const float gate = static_cast<float>(options_.tracker.gate_chi2);
+  const double g = std::sqrt(options_.tracker.gate_chi2);
+  const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
+  const auto explained = [&](uint32_t point_index) {
+    const SalientPoint& sp = hyps.points[point_index];
+    for (uint32_t k = 0; k < sp.num_hypotheses; ++k) {
+      if (report->hypothesis_landmark_id[sp.first_hypothesis + k] != 0) return true;
+    }
+    return false;
+  };
+  const size_t n_predictions = predictions_.size();
+  for (size_t i = 0; i < n_predictions; ++i) {
+    const Prediction& p = predictions_[i];
+    if (!p.confirmed || associated_[p.slot] || contradicted_[p.slot]) continue;
+    const Landmark& l = slots_[p.slot];
+    const Eigen::Vector3d p_cl = T_cl_w_ * hot_[p.slot].p_w_last;
+    Eigen::Vector3d uvd;
+    if (p_cl.z() < options_.tracker.min_depth_m || !projectStereo(rig_, p_cl, &uvd)) continue;
+    const OdometryErrorSigma odo = accumulatedOdometrySigma(options_.tracker.odometry_noise,
+                                                            path_m_ - l.path_at_last_seen_m,
+                                                            turn_rad_ - l.turn_at_last_seen_rad);
+    const MeasurementSigma st = predictionSigmaFor(
+        options_.tracker,
+        rig_,
+        uvd,
+        p_cl.z(),
+        OdometryErrorSigma{std::min(odo.trans_m, kMapPoseErrorFactor * sigma.trans_m),
+                           std::min(odo.yaw_rad, kMapPoseErrorFactor * sigma.yaw_rad)});
+    const double inv_u = 1.0 / (st.u_px * st.u_px), inv_v = 1.0 / (st.v_px * st.v_px),
+                 inv_d = 1.0 / (st.d_px * st.d_px);
+    const double gate_u = g * st.u_px, gate_v = g * st.v_px;
+    const int r0 = std::max(0, static_cast<int>(std::ceil(uvd.y() - gate_v)));
+    const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(uvd.y() + gate_v)));
+    const int c0 = std::max(0, static_cast<int>((uvd.x() - gate_u) / kCellWidthPx));
+    const int c1 = std::min(cells_per_row - 1, static_cast<int>((uvd.x() + gate_u) / kCellWidthPx));
+    int32_t best = -1;
+    float best_d2 = gate;
+    uint32_t first_point = UINT32_MAX;
+    bool ambiguous = false;
+    for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
+      const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
+      for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
+           it != row_end;
+           ++it) {
+        const GridEntry& e = *it;
+        const double du = e.u - uvd.x(), dv = e.v - uvd.y(), dd = e.d - uvd.z();
+        const auto d2 = static_cast<float>(du * du * inv_u + dv * dv * inv_v + dd * dd * inv_d);
+        if (d2 > gate) continue;
+        if (first_point == UINT32_MAX) {
+          first_point = e.point_index;
+        } else if (e.point_index != first_point) {
+          ambiguous = true;
+          break;
+        }
+        if (d2 < best_d2) {
+          best = grid_items_[it - grid_uvd_.data()];
+          best_d2 = d2;
+        }
+      }
+    }
+    if (best < 0 || ambiguous || explained(first_point)) continue;
+    const DisparityHypothesis& h = hyps.hypotheses[best];
+    associated_[p.slot] = 1;
+    if (!applyObservation(p.slot, h, hyps.points[h.point_index].corner)) continue;
+    report->hypothesis_landmark_id[best] = l.id;
+    report->associated_ids.push_back(l.id);
+    ++report->associated;
+    ++report->associated_confirmed;
+    ++report->reassociated;
+  }
 }
 
 void LandmarkDatabase::finishFrame() {
@@ -236,6 +316,9 @@ void LandmarkDatabase::releaseSlot(uint32_t slot, FrameReport* report) {
 void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
                                   const StereoHypotheses& /*hyps*/) {
   predictions_.clear();
+  tight_gates_.clear();
+  has_tight_gates_ = prediction_sigma_.has_value();
+  map_frame_predictions_ = has_tight_gates_;
   visible_.assign(slots_.size(), 0);
   associated_.assign(slots_.size(), 0);
   contradicted_.assign(slots_.size(), 0);
@@ -286,80 +369,135 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
     p.p_false_hit_per_hyp = static_cast<float>(
         std::min(0.99, hypothesis_density_ * ellipsoid * sigma.u_px * sigma.v_px * sigma.d_px));
     predictions_.push_back(p);
+    if (has_tight_gates_) {
+      Gate t{p.inv_var_u, p.inv_var_v, p.inv_var_d, p.gate_u, p.gate_v};
+      if (p.confirmed) {
+        const OdometryErrorSigma odo =
+            accumulatedOdometrySigma(options_.tracker.odometry_noise,
+                                     path_m_ - l.path_at_last_seen_m,
+                                     turn_rad_ - l.turn_at_last_seen_rad);
+        const OdometryErrorSigma est{
+            std::min(odo.trans_m, kMapPoseErrorFactor * prediction_sigma_->trans_m),
+            std::min(odo.yaw_rad, kMapPoseErrorFactor * prediction_sigma_->yaw_rad)};
+        const MeasurementSigma st = predictionSigmaFor(options_.tracker, rig_, uvd, p_cl.z(), est);
+        t = Gate{static_cast<float>(1.0 / (st.u_px * st.u_px)),
+                 static_cast<float>(1.0 / (st.v_px * st.v_px)),
+                 static_cast<float>(1.0 / (st.d_px * st.d_px)),
+                 static_cast<float>(g * st.u_px),
+                 static_cast<float>(g * st.v_px)};
+      }
+      tight_gates_.push_back(t);
+    }
   }
 }
 
 void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* report) {
-  hyp_claim_.assign(hyps.hypotheses.size(), -1);
-  hyp_claim_d2_.assign(hyps.hypotheses.size(), 0.0f);
   const float gate = static_cast<float>(options_.tracker.gate_chi2);
   // Confirmed landmarks choose first: a corner they explain is not given to a candidate.
   // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
-  std::vector<int32_t> pred_hyp(predictions_.size(), -1);
+  std::vector<int32_t> pred_hyp;
   const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
   const bool reject_ambiguous = policy_->rejectsAmbiguousConfirmedHits();
-  for (int pass = 0; pass < 2; ++pass) {
-    const bool wanted = pass == 0;  // confirmed landmarks first
-    for (size_t i = 0; i < predictions_.size(); ++i) {
-      const Prediction& p = predictions_[i];
-      if (p.confirmed != wanted) continue;
-      const int r0 = std::max(0, static_cast<int>(std::ceil(p.v - p.gate_v)));
-      const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(p.v + p.gate_v)));
-      const int c0 = std::max(0, static_cast<int>((p.u - p.gate_u) / kCellWidthPx));
-      const int c1 = std::min(cells_per_row - 1, static_cast<int>((p.u + p.gate_u) / kCellWidthPx));
-      int32_t best = -1;
-      float best_d2 = gate;
-      // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
-      // than one the association is ambiguous and is not made (see below).
-      const bool count_points = pass == 0 && reject_ambiguous;
-      uint32_t first_point = UINT32_MAX;
-      bool ambiguous = false;
-      // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
-      // second corner (on office the drift-widened gates of confirmed landmarks held 30
-      // hypotheses on average).
-      for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
-        const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
-        for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
-             it != row_end;
-             ++it) {
-          const GridEntry& e = *it;
-          const float du = e.u - p.u;
-          const float dv = e.v - p.v;
-          const float dd = e.d - p.d;
-          const float d2 = du * du * p.inv_var_u + dv * dv * p.inv_var_v + dd * dd * p.inv_var_d;
-          if (d2 > gate) continue;
-          if (count_points) {
-            if (first_point == UINT32_MAX) {
-              first_point = e.point_index;
-            } else if (e.point_index != first_point) {
-              ambiguous = true;
-              break;
+  // One association of every prediction; `tight`: confirmed landmarks with the estimate's gates
+  // (setPredictionSigma). Returns the confirmed landmarks associated.
+  const auto match = [&](bool tight) {
+    hyp_claim_.assign(hyps.hypotheses.size(), -1);
+    hyp_claim_d2_.assign(hyps.hypotheses.size(), 0.0f);
+    pred_hyp.assign(predictions_.size(), -1);
+    int confirmed_hits = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+      const bool wanted = pass == 0;  // confirmed landmarks first
+      for (size_t i = 0; i < predictions_.size(); ++i) {
+        const Prediction& p = predictions_[i];
+        if (p.confirmed != wanted) continue;
+        const bool use_tight = tight && p.confirmed;
+        const float inv_var_u = use_tight ? tight_gates_[i].inv_var_u : p.inv_var_u;
+        const float inv_var_v = use_tight ? tight_gates_[i].inv_var_v : p.inv_var_v;
+        const float inv_var_d = use_tight ? tight_gates_[i].inv_var_d : p.inv_var_d;
+        const float gate_u = use_tight ? tight_gates_[i].gate_u : p.gate_u;
+        const float gate_v = use_tight ? tight_gates_[i].gate_v : p.gate_v;
+        const int r0 = std::max(0, static_cast<int>(std::ceil(p.v - gate_v)));
+        const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(p.v + gate_v)));
+        const int c0 = std::max(0, static_cast<int>((p.u - gate_u) / kCellWidthPx));
+        const int c1 = std::min(cells_per_row - 1, static_cast<int>((p.u + gate_u) / kCellWidthPx));
+        int32_t best = -1;
+        float best_d2 = gate;
+        // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
+        // than one the association is ambiguous and is not made (see below).
+        const bool count_points = pass == 0 && reject_ambiguous;
+        uint32_t first_point = UINT32_MAX;
+        bool ambiguous = false;
+        // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
+        // second corner (on office the drift-widened gates of confirmed landmarks held 30
+        // hypotheses on average).
+        for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
+          const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
+          for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
+               it != row_end;
+               ++it) {
+            const GridEntry& e = *it;
+            const float du = e.u - p.u;
+            const float dv = e.v - p.v;
+            const float dd = e.d - p.d;
+            const float d2 = du * du * inv_var_u + dv * dv * inv_var_v + dd * dd * inv_var_d;
+            if (d2 > gate) continue;
+            if (count_points) {
+              if (first_point == UINT32_MAX) {
+                first_point = e.point_index;
+              } else if (e.point_index != first_point) {
+                ambiguous = true;
+                break;
+              }
             }
+            if (d2 > best_d2) continue;
+            const int32_t j = grid_items_[it - grid_uvd_.data()];
+            const int32_t owner = hyp_claim_[j];
+            if (owner >= 0) {
+              // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
+              if (predictions_[owner].confirmed && pass == 1) continue;
+              if (hyp_claim_d2_[j] <= d2) continue;
+            }
+            best = j;
+            best_d2 = d2;
           }
-          if (d2 > best_d2) continue;
-          const int32_t j = grid_items_[it - grid_uvd_.data()];
-          const int32_t owner = hyp_claim_[j];
-          if (owner >= 0) {
-            // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
-            if (predictions_[owner].confirmed && pass == 1) continue;
-            if (hyp_claim_d2_[j] <= d2) continue;
-          }
-          best = j;
-          best_d2 = d2;
         }
+        // A confirmed landmark whose gate holds several corners cannot tell which one is its
+        // own (after a long absence odometry drift has widened the gate): taking the nearest
+        // would let it live on a neighbouring corner while its own is confirmed again as a
+        // duplicate. It counts as unseen; if that lasts, it is retired and its corner
+        // re-confirmed afresh.
+        if (best < 0 || ambiguous) continue;
+        const int32_t previous = hyp_claim_[best];
+        if (previous >= 0) {
+          confirmed_hits -= predictions_[previous].confirmed ? 1 : 0;
+          pred_hyp[previous] = -1;
+        }
+        hyp_claim_[best] = static_cast<int32_t>(i);
+        hyp_claim_d2_[best] = best_d2;
+        pred_hyp[i] = best;
+        confirmed_hits += p.confirmed ? 1 : 0;
       }
-      // A confirmed landmark whose gate holds several corners cannot tell which one is its own
-      // (after a long absence odometry drift has widened the gate): taking the nearest would
-      // let it live on a neighbouring corner while its own is confirmed again as a duplicate.
-      // It counts as unseen; if that lasts, it is retired and its corner re-confirmed afresh.
-      if (best < 0 || ambiguous) continue;
-      const int32_t previous = hyp_claim_[best];
-      if (previous >= 0) pred_hyp[previous] = -1;
-      hyp_claim_[best] = static_cast<int32_t>(i);
-      hyp_claim_d2_[best] = best_d2;
-      pred_hyp[i] = best;
+    }
+    return confirmed_hits;
+  };
+  int confirmed_hits = match(has_tight_gates_);
+  report->gates_widened = false;
+  if (has_tight_gates_ && confirmed_hits < kWidenBelowFraction * previous_associated_confirmed_) {
+    // Too few for the estimate's covariance: try the odometry gates, keep the better pass.
+    std::vector<int32_t> tight_pred = pred_hyp, tight_claim = hyp_claim_;
+    std::vector<float> tight_d2 = hyp_claim_d2_;
+    const int wide_hits = match(false);
+    if (wide_hits > confirmed_hits) {
+      confirmed_hits = wide_hits;
+      report->gates_widened = true;
+    } else {
+      pred_hyp.swap(tight_pred);
+      hyp_claim_.swap(tight_claim);
+      hyp_claim_d2_.swap(tight_d2);
     }
   }
+  report->associated_confirmed = confirmed_hits;
+  previous_associated_confirmed_ = confirmed_hits;
   for (size_t i = 0; i < predictions_.size(); ++i) {
     if (pred_hyp[i] < 0) continue;
     const uint32_t slot = predictions_[i].slot;
@@ -474,8 +612,10 @@ bool LandmarkDatabase::applyObservation(uint32_t slot,
         {l.id, l.p_w, static_cast<float>(c.u_px), static_cast<float>(c.v_px), h.d_px});
   }
   if (const auto p_cl = triangulateRectified(rig_, Eigen::Vector2d(c.u_px, c.v_px), h.d_px)) {
-    l.p_w_last = T_w_cl_ * *p_cl;
-    hot_[slot].p_w_last = l.p_w_last;
+    if (!(map_frame_predictions_ && l.state == LandmarkState::kConfirmed)) {
+      l.p_w_last = T_w_cl_ * *p_cl;
+      hot_[slot].p_w_last = l.p_w_last;
+    }
     policy_->onMeasured(slot, l, *p_cl);
   }
   return true;
@@ -539,6 +679,7 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   --num_candidates_;
   ++num_confirmed_;
   ++report->confirmed;
+  report->confirmed_ids.push_back(l.id);
   if (options_.refine.enabled && l.observations.size() >= 2) {
     RefineOptions ro;
     ro.disparity_sigma_px = options_.tracker.disparity_sigma_px;
@@ -550,6 +691,10 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   // Confirmed landmarks are not re-refined (see RefinementOptions::enabled), so their observations
   // are not needed any more: about 1 kB per landmark, and no per-hit copying.
   std::vector<Observation>().swap(l.observations);
+  if (map_frame_predictions_) {
+    l.p_w_last = l.p_w;
+    hot_[slot].p_w_last = l.p_w;
+  }
 }
 
 void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/features.h"
@@ -48,6 +49,16 @@ struct FrameReport {
   std::vector<uint64_t> associated_ids;
   /// Ids of the landmarks removed this frame.
   std::vector<uint64_t> removed_ids;
+  /// Ids of the candidates confirmed this frame (in the order of confirmation).
+  std::vector<uint64_t> confirmed_ids;
+  /// Confirmed landmarks associated this frame (before the anchor check), and whether the
+  /// estimate's gates gave too few of them and the odometry gates were used
+  /// (LandmarkDatabase::setPredictionSigma).
+  int associated_confirmed = 0;
+  bool gates_widened = false;
+  /// Confirmed landmarks associated by the second pass with the corrected pose
+  /// (LandmarkDatabase::correctFramePose).
+  int reassociated = 0;
   /// Per input hypothesis: id of the landmark it was associated with or seeded into, or 0 (ids
   /// start at 1). An associated landmark may still have been removed later in the same update
   /// (removed_ids): find() then returns nullptr.
@@ -100,12 +111,39 @@ class LandmarkDatabase final : public AnchorPoses {
   Status addProbeResults(const StereoHypotheses& measured);
   void finishFrame();
 
+  /// Localisation, before beginFrame(): the standard deviations of the error of the pose that
+  /// frame predicts with, relative to the map (the estimator's predicted covariance), or nullopt
+  /// (odometry: every gate grows with the odometry path since its landmark was last seen). With
+  /// it, confirmed landmarks are first gated by kMapPoseErrorFactor x that error (never wider
+  /// than the odometry gate), so that gates tighten once vision holds and a confirmed landmark
+  /// back in view is not lost in a gate full of other corners. When that pass associates fewer
+  /// than kWidenBelowFraction of the previous frame's confirmed associations (a slip: the
+  /// prediction is off by more than its covariance says) the odometry gates are tried as well
+  /// and the pass with more confirmed associations is kept (FrameReport::gates_widened).
+  void setPredictionSigma(const std::optional<OdometryErrorSigma>& sigma) {
+    prediction_sigma_ = sigma;
+  }
+  /// A confirmed landmark's position was placed with an earlier estimate whose error is of the
+  /// same size as the predicting pose's, and independent of it: the relative error is sqrt(2)
+  /// times the pose's.
+  static constexpr double kMapPoseErrorFactor = 1.4142135623730951;
+  static constexpr double kWidenBelowFraction = 0.5;
+
   /// Between beginFrame() and finishFrame(): the frame's pose corrected by localisation
   /// (localization/pose_update.h). The landmarks associated this frame are re-placed from their
   /// measurements with it, the candidates' observations of this frame take it, and scoring,
   /// confirmation and seeding use it. Association and the anchor check were made with the pose
   /// given to beginFrame (the prediction). Error, nothing changed, for a non-finite pose.
-  Status correctFramePose(const Pose2& pose);
+  ///
+  /// With `sigma` (the corrected pose's error relative to the map, from the estimator's
+  /// covariance), a second association pass: the confirmed landmarks predicted visible but not
+  /// associated (missed, or their prediction gate held several corners) are predicted again with
+  /// the corrected pose and gated by kMapPoseErrorFactor x sigma (never wider than their
+  /// odometry gate), against the corners that no landmark explains, which would otherwise be
+  /// seeded as new candidates: a landmark back in view is re-associated, not confirmed again.
+  /// A gate that holds more than one corner is still not associated.
+  Status correctFramePose(const Pose2& pose,
+                          const std::optional<OdometryErrorSigma>& sigma = std::nullopt);
 
   /// The observations of landmarks that were confirmed before this frame, associated in this
   /// frame: id, the landmark's map position p_w and the observed (u, v, d). Valid between
@@ -140,6 +178,8 @@ class LandmarkDatabase final : public AnchorPoses {
   /// Candidates seeded from one salient point at most (its rivals).
   static constexpr int kMaxRivals = 8;
 
+  /// correctFramePose's second association pass.
+  void reassociateConfirmed(const OdometryErrorSigma& sigma);
   uint32_t allocateSlot();
   void releaseSlot(uint32_t slot, FrameReport* report);
   void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
@@ -210,6 +250,19 @@ class LandmarkDatabase final : public AnchorPoses {
   std::vector<FrameObservation> frame_obs_;
   std::vector<ConfirmedObservation> confirmed_obs_;
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
+  /// setPredictionSigma(); the gates of confirmed predictions with it, parallel to predictions_
+  /// (used only when has_tight_gates_); the previous frame's confirmed associations.
+  struct Gate {
+    float inv_var_u, inv_var_v, inv_var_d, gate_u, gate_v;
+  };
+  std::optional<OdometryErrorSigma> prediction_sigma_;
+  std::vector<Gate> tight_gates_;
+  bool has_tight_gates_ = false;
+  /// With localisation (setPredictionSigma) confirmed landmarks are predicted from their map
+  /// position p_w, in the frame the estimator holds, not from their last measurement (which
+  /// follows odometry drift when there is no estimate).
+  bool map_frame_predictions_ = false;
+  int previous_associated_confirmed_ = 0;
   // The probe's per-frame buffers (reused): pixels and the prediction each stands for.
   std::vector<Corner> probe_pixels_;
   std::vector<uint32_t> probe_prediction_;

@@ -24,9 +24,17 @@ MeasurementSigma predictionSigma(const TrackerOptions& options,
                                  double z_m,
                                  double path_m,
                                  double turn_rad) {
-  const OdometryErrorSigma odo = accumulatedOdometrySigma(options.odometry_noise, path_m, turn_rad);
-  const double sigma_t = odo.trans_m;
-  const double sigma_yaw = odo.yaw_rad;
+  return predictionSigmaFor(
+      options, rig, uvd, z_m, accumulatedOdometrySigma(options.odometry_noise, path_m, turn_rad));
+}
+
+MeasurementSigma predictionSigmaFor(const TrackerOptions& options,
+                                    const StereoRig& rig,
+                                    const Eigen::Vector3d& uvd,
+                                    double z_m,
+                                    const OdometryErrorSigma& pose_error) {
+  const double sigma_t = pose_error.trans_m;
+  const double sigma_yaw = pose_error.yaw_rad;
   const double t_over_z = sigma_t / std::max(z_m, 1e-3);
   const double du_t = (rig.fx_px + std::abs(uvd.x() - rig.cx_px)) * t_over_z;
   const double du_r = rig.fx_px * sigma_yaw;

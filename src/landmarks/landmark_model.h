@@ -44,6 +44,14 @@ MeasurementSigma predictionSigma(const TrackerOptions& options,
                                  double path_m,
                                  double turn_rad);
 
+/// The same for a given pose error: sigma_t and sigma_yaw of the predicting pose relative to the
+/// landmark's position (predictionSigma passes the odometry error since the landmark was seen).
+MeasurementSigma predictionSigmaFor(const TrackerOptions& options,
+                                    const StereoRig& rig,
+                                    const Eigen::Vector3d& uvd,
+                                    double z_m,
+                                    const OdometryErrorSigma& pose_error);
+
 /// phantom_llr of a phantom whose real point would be behind the camera [nats].
 constexpr double kPhantomImpossible = 1e3;
 

@@ -69,8 +69,13 @@ struct PnpOptions {
 
 /// The `localization` section of the run config.
 struct LocalizationOptions {
-  /// Odometry until the fused estimator is measured better on every world (docs/localization.md).
-  Mode mode = Mode::kOdometry;
+  /// Fused: measured better than odometry (ATE 0.10x-0.79x) and than pnp on every world
+  /// (docs/localization.md); odometry reproduces dead reckoning.
+  Mode mode = Mode::kFused;
+  /// pnp, fused: confirmed landmarks are gated by the estimate's predicted covariance (never
+  /// wider than the odometry gates; the odometry gates again when too few associate:
+  /// LandmarkDatabase::setPredictionSigma). false: odometry gates, as in odometry mode.
+  bool estimate_gates = true;
   PoseUpdateOptions update;
   SlipTestOptions slip;
   PnpOptions pnp;

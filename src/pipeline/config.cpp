@@ -93,7 +93,7 @@ static_assert(fieldCount<landmarks::InlierRatioOptions>() == 3,
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
 static_assert(
-    fieldCount<localization::LocalizationOptions>() == 4,
+    fieldCount<localization::LocalizationOptions>() == 5,
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<localization::PoseUpdateOptions>() == 8,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
@@ -398,6 +398,8 @@ void visitPoseUpdate(O& o, V& v) {
 template <typename O, typename V>
 void visitLocalization(O& o, V& v) {
   TWOCAM_CONFIG_KEY(mode, "where the poses come from: odometry | pnp | fused");
+  TWOCAM_CONFIG_KEY(estimate_gates,
+                    "gate confirmed landmarks by the estimate's covariance (pnp, fused) [bool]");
   v.section("update", "the robust pose update (localization/options.h)", [&](V& s) {
     visitPoseUpdate(o.update, s);
   });

@@ -1,13 +1,23 @@
 #include "pipeline/pipeline.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "landmarks/landmark_model.h"
 
 namespace twocam::pipeline {
 namespace {
+
+/// Standard deviations of a planar pose covariance (x, y, yaw): the larger axis of the position
+/// ellipse [m] and the heading [rad].
+OdometryErrorSigma poseSigma(const Eigen::Matrix3d& cov) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> xy(cov.topLeftCorner<2, 2>());
+  return {std::sqrt(std::max(0.0, xy.eigenvalues().maxCoeff())),
+          std::sqrt(std::max(0.0, cov(2, 2)))};
+}
 
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -124,6 +134,13 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     }
     out->pose = localization::toPose2(prediction.T_w_b);
   }
+  // Gates from the estimate's covariance once the estimator has one (the first frame's pose is
+  // the shared start: its covariance is zero but no landmark is confirmed yet).
+  std::optional<OdometryErrorSigma> prediction_sigma;
+  if (localizing && loc_options_.estimate_gates && has_estimate_) {
+    prediction_sigma = poseSigma(prediction.cov);
+  }
+  db_.setPredictionSigma(prediction_sigma);
   if (Status s = db_.beginFrame(frame, t_ns, out->pose, hyps, &report_); !s) {
     out->failure = FrameOutput::Failure::kLandmarks;
     return s;
@@ -151,7 +168,9 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     out->landmarks_observed = r.observations;
     if (r.visual) {
       out->pose = localization::toPose2(estimate_.T_w_b);
-      if (Status s = db_.correctFramePose(out->pose); !s) {
+      std::optional<OdometryErrorSigma> posterior_sigma;
+      if (loc_options_.estimate_gates) posterior_sigma = poseSigma(estimate_.cov);
+      if (Status s = db_.correctFramePose(out->pose, posterior_sigma); !s) {
         out->failure = FrameOutput::Failure::kLandmarks;
         return s;
       }

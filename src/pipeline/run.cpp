@@ -101,7 +101,9 @@ Status Run::execute(const FrameSource& next,
                          corners,
                          hypotheses,
                          pipe_.database().numCandidates(),
-                         pipe_.database().numConfirmed()});
+                         pipe_.database().numConfirmed(),
+                         pipe_.report().confirmed,
+                         pipe_.report().reassociated});
   }
   s.wall_ms = wall.elapsedMs();
   if (!read_status) return read_status;

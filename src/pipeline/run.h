@@ -43,6 +43,8 @@ struct FrameRecord {
   int64_t hypotheses = 0;
   int candidates = 0;  ///< in the database after the frame
   int confirmed = 0;
+  int confirmations = 0;  ///< candidates confirmed in this frame
+  int reassociated = 0;   ///< confirmed landmarks found by the second association pass
 };
 
 struct RunSummary {

@@ -202,6 +202,60 @@ TEST_F(HandBuiltRun, PrecisionJudgesDepthEdgesByTheNearAndFarSurface) {
   EXPECT_NEAR(j["landmarks"]["precision_strict"].get<double>(), 100.0 * 2 / 6, kPercentTol);
 }
 
+TEST_F(HandBuiltRun, DuplicatesAreConfirmationsOfAnOlderConfirmedLandmarksPoint) {
+  using landmarks::LandmarkState;
+  constexpr auto kC = LandmarkState::kConfirmed;
+  const auto confirm_frame = [&](int32_t index,
+                                 const std::vector<uint32_t>& created,
+                                 const std::vector<uint32_t>& confirmed,
+                                 const std::vector<uint32_t>& removed = {}) {
+    landmarks::FrameReport report;
+    report.frame = index;
+    for (uint32_t k : created) report.created_ids.push_back(slots_[k].id);
+    for (uint32_t k : confirmed) report.confirmed_ids.push_back(slots_[k].id);
+    for (uint32_t k : removed) report.removed_ids.push_back(slots_[k].id);
+    return evaluator_.addFrame(StereoHypotheses{}, left_, report, finder(), depth_, T_w_b_);
+  };
+  const uint32_t first = add(kC, 10, 20, kNearZ, 0.9, 0);
+  const uint32_t elsewhere = add(kC, 20, 10, kNearZ, 0.9, 0);
+  ASSERT_TRUE(confirm_frame(0, {first, elsewhere}, {first, elsewhere}).isOk());
+  // Frame 1: the same point again (0.6 px away), and a new point 3 px away: one duplicate.
+  const uint32_t again = add(kC, 10.6f, 20, kNearZ, 0.9, 1);
+  const uint32_t beside = add(kC, 13, 20, kNearZ, 0.9, 1);
+  ASSERT_TRUE(confirm_frame(1, {again, beside}, {again, beside}).isOk());
+  // Frame 2: `elsewhere` was removed; its point confirmed again is not a duplicate any more
+  // (nothing older is still known there).
+  const uint32_t back = add(kC, 20, 10, kNearZ, 0.9, 2);
+  ASSERT_TRUE(confirm_frame(2, {back}, {back}, {elsewhere}).isOk());
+  slots_[elsewhere].state = LandmarkState::kFree;
+  const LandmarkMetrics m = evaluator_.finish(slots_);
+  EXPECT_EQ(m.confirmations_judged, 5);
+  EXPECT_EQ(m.duplicates, 1);
+  EXPECT_DOUBLE_EQ(m.duplicate_fraction, 0.2);
+  // Every landmark sits at its true point (identity poses): map error 0 up to float rounding.
+  constexpr double kFloatPointTolM = 1e-6;
+  EXPECT_NEAR(m.map_error_median_m, 0.0, kFloatPointTolM);
+  EXPECT_NEAR(m.map_error_p90_m, 0.0, kFloatPointTolM);
+}
+
+TEST_F(HandBuiltRun, MapErrorIsTheDistanceToTheTruePointInTheTrueWorld) {
+  using landmarks::LandmarkState;
+  const uint32_t a = add(LandmarkState::kConfirmed, 10, 20, kNearZ, 0.9, 0);
+  const uint32_t b = add(LandmarkState::kConfirmed, 20, 20, kNearZ, 0.9, 0);
+  const uint32_t c = add(LandmarkState::kConfirmed, 15, 30, kNearZ, 0.9, 0);
+  ASSERT_TRUE(frame(0, {a, b, c}).isOk());
+  // The map holds them 5 cm, 1 m and 10 cm off (e.g. placed with a drifted pose).
+  slots_[a].p_w += Eigen::Vector3d(0.05, 0.0, 0.0);
+  slots_[b].p_w += Eigen::Vector3d(0.0, 1.0, 0.0);
+  slots_[c].p_w += Eigen::Vector3d(0.0, 0.0, -0.1);
+  const LandmarkMetrics m = evaluator_.finish(slots_);
+  constexpr double kFloatPointTolM = 1e-6;
+  EXPECT_NEAR(m.map_error_median_m, 0.1, kFloatPointTolM);
+  EXPECT_NEAR(m.map_error_p90_m, 1.0, kFloatPointTolM);
+  // No confirmation was reported through confirmed_ids: the fraction is absent, not 0.
+  EXPECT_TRUE(std::isnan(m.duplicate_fraction));
+}
+
 TEST_F(HandBuiltRun, RemovedLandmarksAreForgotten) {
   const uint32_t a = add(landmarks::LandmarkState::kConfirmed, 10, 20, kNearZ, 0.9, 0);
   ASSERT_TRUE(frame(0, {a}).isOk());

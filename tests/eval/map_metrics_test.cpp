@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 namespace twocam::eval {
@@ -64,6 +65,51 @@ TEST(MapMetrics, EmptyMapHasZeroFraction) {
   EXPECT_EQ(m.phantom, 0);
   EXPECT_EQ(m.phantom_fraction, 0.0);
   EXPECT_TRUE(distances.empty());
+}
+
+TEST(MapMetrics, CompletenessCountsObservableCellsHeldWithinOneVoxel) {
+  StereoRig rig;  // 640x480, fx 500
+  rig.T_b_cl = Eigen::Isometry3d::Identity();
+  ImageF32 depth(rig.width_px, rig.height_px, 2.0f);  // a wall 2 m in front of the camera
+  ObservableVoxels observable(rig, kResolutionM, 6.0);
+  observable.addFrame(depth, Eigen::Isometry3d::Identity());
+  ASSERT_GT(observable.cells().size(), 100u);
+  // The map holds the wall: every observable cell's neighbourhood.
+  std::vector<mapping::Voxel> wall;
+  for (int v = 0; v < rig.height_px; v += 2) {
+    for (int u = 0; u < rig.width_px; u += 2) {
+      wall.push_back(voxelAt(Eigen::Vector3d(
+          (u - rig.cx_px) / rig.fx_px * 2.0, (v - rig.cy_px) / rig.fy_px * 2.0, 2.0)));
+    }
+  }
+  MapMetrics m;
+  measureCompleteness(wall, observable, &m);
+  EXPECT_EQ(m.observable, static_cast<int64_t>(observable.cells().size()));
+  EXPECT_DOUBLE_EQ(m.completeness, 1.0);
+  // One voxel off is still held (26-neighbourhood); three voxels off is not.
+  std::vector<mapping::Voxel> moved = wall;
+  for (mapping::Voxel& v : moved) v.centre_m.z() += kResolutionM;
+  measureCompleteness(moved, observable, &m);
+  EXPECT_DOUBLE_EQ(m.completeness, 1.0);
+  for (mapping::Voxel& v : moved) v.centre_m.z() += 2 * kResolutionM;
+  measureCompleteness(moved, observable, &m);
+  EXPECT_DOUBLE_EQ(m.completeness, 0.0);
+  // A pruned node of 4 x 4 x 4 cells holds the cells it covers.
+  ObservableVoxels one(rig, kResolutionM, 6.0, 100000);  // stride: only pixel (0, 0)
+  one.addFrame(depth, Eigen::Isometry3d::Identity());
+  ASSERT_EQ(one.cells().size(), 1u);
+  const Eigen::Vector3d p(
+      (0 - rig.cx_px) / rig.fx_px * 2.0, (0 - rig.cy_px) / rig.fy_px * 2.0, 2.0);
+  mapping::Voxel big = voxelAt(p + Eigen::Vector3d::Constant(1.5 * kResolutionM));
+  big.size_m = 4 * kResolutionM;
+  measureCompleteness({big}, one, &m);
+  EXPECT_DOUBLE_EQ(m.completeness, 1.0);
+  // Beyond max_range_m nothing is observable: completeness is absent, not 0.
+  ObservableVoxels far(rig, kResolutionM, 1.0);
+  far.addFrame(depth, Eigen::Isometry3d::Identity());
+  measureCompleteness(wall, far, &m);
+  EXPECT_EQ(m.observable, 0);
+  EXPECT_TRUE(std::isnan(m.completeness));
 }
 
 }  // namespace

@@ -420,10 +420,29 @@ TEST(TwocamCli, RunLocalizesInEachModeAndRefusesAnUnknownOne) {
   EXPECT_EQ(readFile(dir + "/fused/metrics.json"), readFile(dir + "/again/metrics.json"));
   EXPECT_EQ(readFile(dir + "/fused/trajectory_est.tum"),
             readFile(dir + "/again/trajectory_est.tum"));
+  // The default is fused.
+  const RunResult def = run("run " + dir + "/s.rawlog -o " + dir + "/default -q --no-pictures");
+  ASSERT_EQ(def.exit_code, 0) << def.output;
+  EXPECT_EQ(readFile(dir + "/fused/trajectory_est.tum"),
+            readFile(dir + "/default/trajectory_est.tum"));
+  // The localisation and map metrics of METRICS.md are there.
+  const std::string fused_metrics = readFile(dir + "/fused/metrics.json");
+  for (const char* key : {"\"rpe_trans_pct\"",
+                          "\"rpe_rot_deg_per_m\"",
+                          "\"completeness\"",
+                          "\"oracle_poses\"",
+                          "\"odometry_frame\"",
+                          "\"map_error_median_m\"",
+                          "\"duplicate_fraction\""}) {
+    EXPECT_NE(fused_metrics.find(key), std::string::npos) << key;
+  }
+  EXPECT_TRUE(fs::exists(dir + "/fused/localization.csv"));
   // Odometry mode writes no estimated track.
-  const RunResult odo = run("run " + dir + "/s.rawlog -o " + dir + "/odo -q --no-pictures");
+  const RunResult odo =
+      run("run " + dir + "/s.rawlog -o " + dir + "/odo -q --no-pictures --localization odometry");
   ASSERT_EQ(odo.exit_code, 0) << odo.output;
   EXPECT_FALSE(fs::exists(dir + "/odo/trajectory_est.tum"));
+  EXPECT_NE(readFile(dir + "/odo/config_used.yaml").find("mode: odometry"), std::string::npos);
   // An unknown mode: an error naming what was typed, exit 1, no output folder.
   const RunResult bad =
       run("run " + dir + "/s.rawlog -o " + dir + "/bad -q --no-pictures --localization kalman");
