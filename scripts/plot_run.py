@@ -3,11 +3,14 @@
 
 Usage: scripts/plot_run.py OUTDIR [--sample-only]
 
-Reads OUTDIR/metrics.json (required), landmarks.csv, trajectory_odom.tum, trajectory_gt.tum,
-timings.csv, map_voxels.csv, map_eval_voxels.csv, world_outline.csv and sample_frame/
-{left.png,right.png,hypotheses.csv} (all optional) and writes into OUTDIR/pictures/:
-  map_topdown.png             landmarks, map voxels and tracks seen from above (odometry frame;
-                              plus the evaluation map in the true world frame when available)
+Reads OUTDIR/metrics.json (required), landmarks.csv, trajectory_odom.tum, trajectory_est.tum,
+trajectory_gt.tum, timings.csv, localization.csv, slip_events.csv, map_voxels.csv,
+map_eval_voxels.csv, world_outline.csv and sample_frame/{left.png,right.png,hypotheses.csv} (all
+optional) and writes into OUTDIR/pictures/:
+  map_topdown.png             landmarks, map voxels and tracks seen from above (the robot's world
+                              frame; plus the map's voxels against the true world when available)
+  localization.png            per-frame position error of the estimate and of odometry, confirmed
+                              landmarks in the pose, slip events and the frames flagged as slips
   confidence_histogram.png    landmark confidence, confirmed vs candidates, correct vs wrong
   precision_vs_threshold.png  precision [%] and landmark count against the confidence threshold
   timings.png                 per-frame stage timings and per-frame counts
@@ -267,6 +270,7 @@ def draw_track(ax, traj, label, style):
 
 ODOM_STYLE = dict(color="tab:red", lw=1.6, ls="--")
 TRUE_STYLE = dict(color="tab:green", lw=2.0)
+EST_STYLE = dict(color="tab:blue", lw=1.4)
 
 
 def view_box(full, robust):
@@ -301,6 +305,9 @@ def plot_map_topdown(run):
     gt = run.tum("trajectory_gt.tum")
     odom = odom if odom is not None and len(odom) else None
     gt = gt if gt is not None and len(gt) else None
+    est = run.tum("trajectory_est.tum")
+    est = est if est is not None and len(est) else None
+    mode = (run.metrics.get("localization") or {}).get("mode", "?")
     lm = run.landmarks()
     lm = lm if lm is not None and lm["n"] else None
     vox_sq = None
@@ -336,7 +343,8 @@ def plot_map_topdown(run):
     robust = [lm_xy[conf] if conf is not None and conf.any() else lm_xy]
     if vox_sq is not None and len(vox_sq):
         robust.append(vox_sq.mean(axis=1))
-    box_l = view_box([None if odom is None else odom[:, 1:3], None if gt is None else gt[:, 1:3]], robust)
+    box_l = view_box([None if odom is None else odom[:, 1:3], None if gt is None else gt[:, 1:3],
+                      None if est is None else est[:, 1:3]], robust)
 
     spans = [box_l[1] - box_l[0]] + ([box_r[1] - box_r[0]] if have_eval else [])
     ratio = max(s[1] / max(s[0], 1e-9) for s in spans)
@@ -352,6 +360,7 @@ def plot_map_topdown(run):
                                          label=f"map voxels ({vox_n}, top-down)"))
     draw_track(ax, odom, "odometry track", ODOM_STYLE)
     draw_track(ax, gt, "true track", TRUE_STYLE)
+    draw_track(ax, est, f"estimated track ({mode})", EST_STYLE)
     n_conf = n_cand = 0
     if lm is not None:
         n_conf, n_cand = int(conf.sum()), int((~conf).sum())
@@ -373,7 +382,9 @@ def plot_map_topdown(run):
         hid_conf, hid_cand = n_outside(lm_xy[conf], box_l), n_outside(lm_xy[~conf], box_l)
         if hid_conf or hid_cand:
             sub.append(f"outside the view: {hid_conf} confirmed, {hid_cand} candidates")
-    ax.set_title("odometry frame (what the robot built)\n" + "; ".join(sub), fontsize=10)
+    frame_name = "estimated" if est is not None else "odometry"
+    ax.set_title(f"the robot's world frame ({frame_name} poses: what the robot built)\n" + "; ".join(sub),
+                 fontsize=10)
     finish_topdown(ax)
 
     # --- right: true world frame
@@ -389,6 +400,8 @@ def plot_map_topdown(run):
             ax.add_collection(PolyCollection(ph_sq, facecolors="red", alpha=0.85, edgecolors="none",
                                              zorder=4, label=f"phantom voxels ({int(phantom.sum())})"))
         draw_track(ax, gt, "true track", TRUE_STYLE)
+        draw_track(ax, est if est is not None else odom, "track the map was built with",
+                   EST_STYLE if est is not None else ODOM_STYLE)
         if outline:
             ax.plot([], [], color="0.25", lw=1.8, label="world (walls, objects)")
             ax.plot([], [], color="0.55", lw=1.0, ls="--", label="overhead objects")
@@ -409,14 +422,14 @@ def plot_map_topdown(run):
         hidden = n_outside(eval_xy[phantom], box_r)
         if hidden:
             t += f"\n{hidden} phantom voxels outside the view"
-        ax.set_title("true world frame (evaluation)\n" + t, fontsize=10)
+        ax.set_title("the map as built, against the true world\n" + t, fontsize=10)
         finish_topdown(ax, "x [m] (true world)", "y [m] (true world)")
     fig.suptitle(run_label(run), fontsize=11)
     fig.tight_layout()
     return save(fig, run, "map_topdown.png")
 
 
-def finish_topdown(ax, xlabel="x [m] (odometry world: forward)", ylabel="y [m] (odometry world: left)"):
+def finish_topdown(ax, xlabel="x [m] (robot's world: forward)", ylabel="y [m] (robot's world: left)"):
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_aspect("equal", adjustable="datalim")
@@ -633,6 +646,68 @@ def plot_timings(run):
     return save(fig, run, "timings.png")
 
 
+def plot_localization(run):
+    if not run.has("localization.csv"):
+        raise Skip("no localization.csv")
+    rows = run.csv("localization.csv")
+    p = run.path("localization.csv")
+    if not rows:
+        raise Skip("localization.csv has no rows")
+    t = column(rows, "t_s", p)
+    used = column(rows, "landmarks_used", p)
+    visual = column(rows, "visual", p) > 0.5
+    flagged = column(rows, "slip_flagged", p) > 0.5
+    err_odo = column(rows, "odometry_error_m", p)
+    err_est = column(rows, "estimate_error_m", p)
+    lo = run.metrics.get("localization") or {}
+    mode = lo.get("mode", "?")
+    tr = run.metrics.get("trajectory") or {}
+    ate = tr.get("ate_rmse_m") or {}
+    fig, (ax, axl) = plt.subplots(2, 1, figsize=(12, 7.5), sharex=True,
+                                  gridspec_kw=dict(height_ratios=[3, 2]))
+    if np.isfinite(err_odo).any():
+        ax.plot(t, 100 * err_odo, **ODOM_STYLE,
+                label=f"odometry (ATE {100 * num(ate.get('odometry')):.1f} cm)")
+    if np.isfinite(err_est).any() and mode != "odometry":
+        ax.plot(t, 100 * err_est, **EST_STYLE,
+                label=f"estimate, {mode} (ATE {100 * num(ate.get(mode)):.1f} cm)")
+    if not np.isfinite(err_odo).any():
+        ax.text(0.5, 0.5, "no ground truth: no pose error", transform=ax.transAxes, ha="center")
+    events = []
+    if run.has("slip_events.csv"):
+        er = run.csv("slip_events.csv")
+        ep = run.path("slip_events.csv")
+        if er:
+            events = list(zip(column(er, "time_s", ep), column(er, "dx_m", ep), column(er, "dy_m", ep),
+                              column(er, "dyaw_deg", ep)))
+    for k, (ts, dx, dy, dyaw) in enumerate(events):
+        for a in (ax, axl):
+            a.axvline(ts, color="tab:orange", lw=1.2, alpha=0.8, zorder=1,
+                      label="slip event (world)" if k == 0 and a is ax else None)
+        ax.text(ts, 1.0, f" {100 * math.hypot(dx, dy):.0f} cm, {dyaw:.1f}°", transform=ax.get_xaxis_transform(),
+                rotation=90, va="top", ha="right", fontsize=7, color="tab:orange")
+    if flagged.any():
+        top = np.nanmax(100 * err_est) if np.isfinite(err_est).any() else 1.0
+        ax.plot(t[flagged], np.full(int(flagged.sum()), 0.95 * top), "v", color="black", ms=7,
+                label=f"flagged as slip ({int(flagged.sum())})")
+    ax.set_ylabel("position error against the truth [cm]")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title("localisation — " + run_label(run), fontsize=10)
+    axl.plot(t, used, color="tab:blue", lw=1.0, label="confirmed landmarks in the pose (inliers)")
+    if (~visual).any():
+        axl.plot(t[~visual], np.zeros(int((~visual).sum())), "|", color="tab:red", ms=10,
+                 label=f"odometry only ({int((~visual).sum())} frames)")
+    axl.set_ylabel("landmarks per frame")
+    axl.set_xlabel("time [s]")
+    axl.set_ylim(bottom=-5)
+    axl.grid(True, alpha=0.3)
+    axl.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    return save(fig, run, "localization.png")
+
+
 TRUTH_COLOURS = {1: "lime", 0: "red", -1: "0.75"}
 STATE_STYLE = {-1: ("deepskyblue", "not in database"), 0: ("orange", "candidate landmark"),
                1: ("magenta", "confirmed landmark")}
@@ -740,7 +815,8 @@ def plot_sample_frame(run):
 
 # -------------------------------------------------------------------------------------------- main
 
-PICTURES = [("map_topdown", plot_map_topdown), ("confidence_histogram", plot_confidence_histogram),
+PICTURES = [("map_topdown", plot_map_topdown), ("localization", plot_localization),
+            ("confidence_histogram", plot_confidence_histogram),
             ("precision_vs_threshold", plot_precision_vs_threshold), ("timings", plot_timings),
             ("sample_frame", plot_sample_frame)]
 

@@ -196,6 +196,72 @@ std::string slipEventsCsv(const std::vector<sim::SlipEvent>& events, double fram
   return csv.str();
 }
 
+/// Revisits (issue 23: "in a static world already explored, the database stops growing"):
+/// laps of the true track, a lap ending where the robot passes within kLapRadiusM of its start
+/// after at least kMinLapPathM of travel (the frame nearest the start in that pass), and the
+/// confirmations per lap. growth_after_first_lap = confirmations in later laps / confirmed
+/// landmarks at the end of lap 1. Absent (with the reason) for a track of less than two laps.
+Json revisitsJson(const std::vector<io::TimedPose>& gt, const pipeline::RunSummary& s) {
+  constexpr double kLapRadiusM = 0.5;
+  constexpr double kMinLapPathM = 2.0;
+  std::vector<size_t> lap_ends;
+  if (!gt.empty()) {
+    const Eigen::Vector3d start = gt.front().T_w_b.translation();
+    double path = 0.0, path_at_lap = 0.0;
+    bool inside = false;
+    size_t best = 0;
+    double best_dist = 0.0;
+    for (size_t i = 1; i < gt.size(); ++i) {
+      path += (gt[i].T_w_b.translation() - gt[i - 1].T_w_b.translation()).norm();
+      const double dist = (gt[i].T_w_b.translation() - start).norm();
+      if (!inside && dist <= kLapRadiusM && path - path_at_lap >= kMinLapPathM) {
+        inside = true;
+        best = i;
+        best_dist = dist;
+      } else if (inside && dist <= kLapRadiusM) {
+        if (dist < best_dist) {
+          best = i;
+          best_dist = dist;
+        }
+      } else if (inside) {
+        inside = false;
+        lap_ends.push_back(best);
+        path_at_lap = path;
+      }
+    }
+    if (inside) lap_ends.push_back(best);
+  }
+  if (lap_ends.size() < 2) {
+    return {{"absent",
+             "the true track does not come back to its start twice (fewer than two "
+             "laps)"}};
+  }
+  Json ends = Json::array(), per_lap = Json::array();
+  int64_t lap_count = 0, later = 0;
+  size_t lap = 0;
+  int confirmed_after_first = 0;
+  for (size_t i = 0; i < s.records.size() && i < gt.size(); ++i) {
+    if (lap < lap_ends.size() && i > lap_ends[lap]) {
+      per_lap.push_back(lap_count);
+      if (lap == 0) confirmed_after_first = s.records[lap_ends[0]].confirmed;
+      lap_count = 0;
+      ++lap;
+    }
+    lap_count += s.records[i].confirmations;
+    if (lap >= 1) later += s.records[i].confirmations;
+  }
+  per_lap.push_back(lap_count);
+  for (size_t e : lap_ends) ends.push_back(s.records[e].frame);
+  return {
+      {"lap_end_frames", ends},
+      {"confirmations_per_lap", per_lap},
+      {"confirmed_after_first_lap", confirmed_after_first},
+      {"confirmations_after_first_lap", later},
+      {"growth_after_first_lap",
+       confirmed_after_first > 0 ? numberOrNull(static_cast<double>(later) / confirmed_after_first)
+                                 : Json(nullptr)}};
+}
+
 }  // namespace
 
 RunEvaluator::RunEvaluator(const StereoRig& rig,
@@ -461,6 +527,7 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                              s,
                              gt_track_.size());
     }
+    m["revisits"] = revisitsJson(gt_track_, s);
     lm = landmarks_.finish(db);
     const Json nested = toJson(*lm);
     for (auto it = nested.begin(); it != nested.end(); ++it) m[it.key()] = *it;

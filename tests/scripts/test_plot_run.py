@@ -27,8 +27,8 @@ except ImportError as e:
 
 SOURCE_DIR = Path(os.environ.get("TWOCAM_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 SCRIPT = SOURCE_DIR / "scripts" / "plot_run.py"
-ALL_PICTURES = ["map_topdown.png", "confidence_histogram.png", "precision_vs_threshold.png",
-                "timings.png", "sample_frame.png"]
+ALL_PICTURES = ["map_topdown.png", "localization.png", "confidence_histogram.png",
+                "precision_vs_threshold.png", "timings.png", "sample_frame.png"]
 
 LANDMARK_HEADER = ("id,x,y,z,confirmed,confidence,n_obs,first_frame,anchor_frame,anchor_u,anchor_v,"
                    "anchor_d,confirmed_frame,verdict,error_m,anchor_d_gt,estimate_anchor_d")
@@ -175,6 +175,17 @@ def write_full_run(d, n_frames=150, n_landmarks=600, seed=7, ground_truth=True):
             conf_n += rng.randint(0, 8) if i > 10 else 0
             f.write(f"{i},{fe:.4f},{lmk:.4f},{mp:.4f},{fe + lmk + mp:.4f},{corners},"
                     f"{int(corners * 2.6)},{cand},{conf_n}\n")
+    # localisation: an estimated track, per-frame errors, two slip events, one flagged
+    with open(d / "localization.csv", "w") as f, open(d / "trajectory_est.tum", "w") as fe:
+        f.write("frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m\n")
+        for i in range(n_frames):
+            visual = int(i > 3 and i % 37 != 0)
+            f.write(f"{i},{i / 15:.4f},{visual},{rng.randint(20, 400) * visual},{int(i == 61)},"
+                    f"{0.001 * i:.5f},{0.005 + 0.002 * rng.random():.5f}\n")
+            x, y, _ = true_pose(i, n_frames)
+            fe.write(f"{i / 15:.6f} {x + 0.004:.5f} {y - 0.003:.5f} 0 0 0 0 1\n")
+    (d / "slip_events.csv").write_text("frame,time_s,dx_m,dy_m,dyaw_deg\n60,4.0,0.04,0,1.5\n"
+                                       "120,8.0,0.1,0.02,-3\n")
     # sample frame: textured left image, right = left shifted by the disparity 6 px
     W, H, D = 160, 120, 6
     sf = d / "sample_frame"
@@ -209,6 +220,8 @@ def write_full_run(d, n_frames=150, n_landmarks=600, seed=7, ground_truth=True):
                       "total_median": 3.01, "total_p95": 3.5},
         "landmarks": {"precision": 95.2, "confirmed": len(odom_pts),
                       "correct_confirmed": int(0.952 * len(odom_pts)), "candidates": n_landmarks - len(odom_pts)},
+        "localization": {"mode": "fused", "visual_fraction": 0.95},
+        "trajectory": {"ate_rmse_m": {"odometry": 0.07, "fused": 0.006}},
         "octomap": {"occupied": len(occ), "phantom": n_phantom,
                     "phantom_fraction": n_phantom / n_occ if n_occ else 0.0, "resolution_m": res},
         "calibration": cal,
@@ -318,7 +331,8 @@ class PlotRunTest(unittest.TestCase):
         (d / "landmarks.csv").write_text(LANDMARK_HEADER + "\n")
         proc = self.run_script(d)
         self.assert_ok(proc)
-        self.assert_pictures(d, proc, ["map_topdown.png", "timings.png", "sample_frame.png"])
+        self.assert_pictures(d, proc, ["map_topdown.png", "localization.png", "timings.png",
+                                       "sample_frame.png"])
 
     def test_no_ground_truth_minimal(self):
         d = self.root / "out_nogt"
@@ -340,8 +354,8 @@ class PlotRunTest(unittest.TestCase):
         proc = self.run_script(d)
         self.assert_ok(proc)
         # no verdicts and no calibration: nothing to compute a precision from
-        self.assert_pictures(d, proc, ["map_topdown.png", "confidence_histogram.png", "timings.png",
-                                       "sample_frame.png"])
+        self.assert_pictures(d, proc, ["map_topdown.png", "localization.png", "confidence_histogram.png",
+                                       "timings.png", "sample_frame.png"])
         w, h = png_size(d / "pictures" / "map_topdown.png")
         self.assertLess(w, 1300)  # one panel only (two panels are about 1800 px wide)
 
@@ -354,7 +368,7 @@ class PlotRunTest(unittest.TestCase):
         (d / "trajectory_gt.tum").write_text("# no poses\n")
         proc = self.run_script(d)
         self.assert_ok(proc)
-        self.assert_pictures(d, proc, ["map_topdown.png", "confidence_histogram.png",
+        self.assert_pictures(d, proc, ["map_topdown.png", "localization.png", "confidence_histogram.png",
                                        "precision_vs_threshold.png", "sample_frame.png"])
 
     def test_missing_outdir(self):
