@@ -104,13 +104,18 @@ int runRun(const RunArgs& args) {
     outputs.text_files.emplace_back("world_outline.csv", worldOutlineCsv(world));
   if (Status s = writeRunOutputs(outputs, run, writer.get()); !s) return fail(s.message());
 
-  std::cout << outputs.summary << "wrote "
-            << (std::filesystem::path(args.output_dir) / "metrics.json").string()
-            << (run.summary().odometry_mode ? ", map.bt, landmarks.csv, trajectory_odom.tum"
-                                            : ", landmarks.csv (empty)")
-            << (outputs.metrics["ground_truth"].get<bool>() ? ", trajectory_gt.tum" : "")
-            << ", timings.csv, config_used.yaml" << (outputs.sample_taken ? ", sample_frame/" : "")
-            << std::endl;
+  // Every file written, in order; a folder's files as the folder.
+  std::string written = "metrics.json, timing.json";
+  if (run.summary().odometry_mode) written += ", map.bt";
+  std::string last_dir;
+  for (const auto& [path, content] : outputs.text_files) {
+    const std::string dir =
+        path.find('/') == std::string::npos ? "" : path.substr(0, path.find('/'));
+    if (!dir.empty() && dir == last_dir) continue;
+    last_dir = dir;
+    written += ", " + (dir.empty() ? path : dir + "/");
+  }
+  std::cout << outputs.summary << "wrote " << written << " in " << args.output_dir << std::endl;
   if (!args.no_pictures) {
     std::cout << "pictures:" << std::endl;
     drawPictures(writer->outputDir());

@@ -267,7 +267,11 @@ Json revisitsJson(const std::vector<io::TimedPose>& gt, const pipeline::RunSumma
 RunEvaluator::RunEvaluator(const StereoRig& rig,
                            const pipeline::PipelineConfig& config,
                            Inputs inputs)
-    : rig_(rig), config_(config), inputs_(std::move(inputs)), landmarks_(rig) {
+    : rig_(rig),
+      config_(config),
+      inputs_(std::move(inputs)),
+      landmarks_(rig),
+      pose_consistency_(rig) {
   if (inputs_.world) {
     oracle_map_ = std::make_unique<ReplacedMap>(config_.mapping);
     if (config_.localization.mode != localization::Mode::kOdometry) {
@@ -283,11 +287,16 @@ RunEvaluator::~RunEvaluator() = default;
 Status RunEvaluator::addFrame(const pipeline::RunFrame& f) {
   const GroundTruthFrame* gt = usableGroundTruth(f.log);
   if (f.odometry_mode) {
-    if (gt && has_gt_) {
-      if (Status s = checkGroundTruthPose(gt->T_w_b); !s) {
+    const bool pose = f.log.ground_truth.has_value() && has_pose_gt_;
+    if (pose) {
+      if (Status s = checkGroundTruthPose(f.log.ground_truth->T_w_b); !s) {
         return Status::error("frame " + std::to_string(f.log.index) + ": " + s.message());
       }
-      gt_track_.push_back({f.log.stereo.t_ns, gt->T_w_b});
+      gt_track_.push_back({f.log.stereo.t_ns, f.log.ground_truth->T_w_b});
+    } else {
+      has_pose_gt_ = false;
+    }
+    if (gt && has_gt_ && pose) {
       const pipeline::Pipeline& pipe = f.pipeline;
       if (Status s = landmarks_.addFrame(pipe.hypotheses(),
                                          f.log.stereo.left,
@@ -305,6 +314,11 @@ Status RunEvaluator::addFrame(const pipeline::RunFrame& f) {
       if (observable_) observable_->addFrame(gt->depth_left, gt->T_w_b);
     } else {
       has_gt_ = false;
+      // True poses without true depth: judge the landmarks by the true motion instead.
+      if (pose) {
+        pose_consistency_.addFrame(
+            f.pipeline.hypotheses(), f.pipeline.report(), f.log.ground_truth->T_w_b);
+      }
     }
   }
   if (!sample_taken_ && f.log.index >= inputs_.sample_frame) takeSample(f, gt);
@@ -419,6 +433,7 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   const landmarks::LandmarkDatabase& db = pipe.database();
   const double resolution_m = config_.mapping.resolution_m;
   const bool has_gt = has_gt_ && s.odometry_mode && !gt_track_.empty();
+  const bool has_pose_gt = has_pose_gt_ && s.odometry_mode && !gt_track_.empty();
   const bool localizing =
       s.odometry_mode && config_.localization.mode != localization::Mode::kOdometry;
   const std::string mode = localization::modeName(config_.localization.mode);
@@ -490,7 +505,7 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
     m["octomap"] = {{"absent", why}};
   }
   std::optional<LandmarkMetrics> lm;
-  if (has_gt) {
+  if (has_pose_gt) {
     double ate = 0.0;
     if (Status st = ateRmseM(s.odom_track, gt_track_, &ate); !st) return st;
     Json ate_json = {{"odometry", numberOrNull(ate)}};
@@ -528,12 +543,25 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                              gt_track_.size());
     }
     m["revisits"] = revisitsJson(gt_track_, s);
+  } else {
+    m["trajectory"] = {{"absent",
+                        !s.odometry_mode ? "the log has no odometry, so there is no trajectory"
+                                         : "the log has no true pose for every frame"}};
+  }
+  if (has_gt) {
     lm = landmarks_.finish(db);
     const Json nested = toJson(*lm);
     for (auto it = nested.begin(); it != nested.end(); ++it) m[it.key()] = *it;
   } else {
     m["landmarks"] = {{"confirmed", db.numConfirmed()}, {"candidates", db.numCandidates()}};
+    if (has_pose_gt) {
+      const PoseConsistencyMetrics pc = pose_consistency_.finish(db);
+      m["landmarks"]["true_pose_consistency"] = numberOrNull(pc.fraction);
+      m["landmarks"]["true_pose_consistent"] = pc.consistent;
+      m["landmarks"]["true_pose_judged"] = pc.judged;
+    }
   }
+  m["ground_truth_poses"] = has_pose_gt;
 
   if (localizing) {
     int visual = 0;
@@ -576,13 +604,16 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                                        ": body pose in the robot's world frame (planar part)"));
     }
   }
-  if (s.odometry_mode) files.emplace_back("localization.csv", localizationCsv(s, gt_track_));
+  if (s.odometry_mode) {
+    files.emplace_back("localization.csv",
+                       localizationCsv(s, has_pose_gt ? gt_track_ : std::vector<io::TimedPose>{}));
+  }
   if (localizing && has_gt && inputs_.world) {
     files.emplace_back(
         "slip_events.csv",
         slipEventsCsv(inputs_.world->odometry_noise.slips, inputs_.world->robot.frame_rate_hz));
   }
-  if (has_gt) {
+  if (has_pose_gt) {
     files.emplace_back("trajectory_gt.tum",
                        io::toTum(gt_track_, "ground truth: body pose in the world frame"));
   }

@@ -22,6 +22,7 @@
 #include "common/status.h"
 #include "eval/landmark_metrics.h"
 #include "eval/map_metrics.h"
+#include "eval/pose_consistency.h"
 #include "io/json.h"
 #include "io/trajectory.h"
 #include "mapping/occupancy_mapper.h"
@@ -96,7 +97,11 @@ class RunEvaluator {
   std::unique_ptr<ReplacedMap> odometry_map_;
   std::unique_ptr<ObservableVoxels> observable_;
   std::vector<io::TimedPose> gt_track_;
+  /// Every processed frame so far had a true pose and depth (has_gt_), a true pose (has_pose_gt_).
   bool has_gt_ = true;
+  bool has_pose_gt_ = true;
+  /// Logs with true poses but no true depth (KITTI): landmarks.true_pose_consistency.
+  TruePoseConsistency pose_consistency_;
   bool sample_taken_ = false;
   int sample_index_ = 0;
   ImageU8 sample_left_, sample_right_;

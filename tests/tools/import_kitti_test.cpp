@@ -219,6 +219,18 @@ TEST(ImportKitti, RunSaysTheOdometryIsSynthetic) {
   const std::string metrics = readFile(dir + "/syn_run/metrics.json");
   EXPECT_NE(metrics.find("\"odometry\": true"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find("\"odometry_synthetic\": true"), std::string::npos) << metrics;
+  // True poses without true depth: the trajectory is measured and the landmarks are judged by the
+  // true motion (METRICS.md landmarks.true_pose_consistency); no depth-based verdicts.
+  for (const char* key : {"\"ground_truth_poses\": true",
+                          "\"ground_truth\": false",
+                          "\"ate_rmse_m\"",
+                          "\"rpe_trans_pct\"",
+                          "\"true_pose_consistency\"",
+                          "\"true_pose_judged\""}) {
+    EXPECT_NE(metrics.find(key), std::string::npos) << key << "\n" << metrics;
+  }
+  EXPECT_TRUE(fs::exists(dir + "/syn_run/trajectory_gt.tum"));
+  EXPECT_TRUE(fs::exists(dir + "/syn_run/trajectory_est.tum"));
 
   const RunResult p = run("run " + dir + "/plain.rawlog -o " + dir + "/plain_run -q --no-pictures");
   ASSERT_EQ(p.exit_code, 0) << p.output << p.error;
