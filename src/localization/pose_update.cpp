@@ -126,6 +126,17 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   }
   out.observations = static_cast<int>(residuals.size());
   if (out.observations < options.min_landmarks) return out;
+  if (options.max_observations > 0 &&
+      residuals.size() > static_cast<size_t>(options.max_observations)) {
+    const size_t n = residuals.size();
+    const auto m = static_cast<size_t>(options.max_observations);
+    for (size_t k = 0; k < m; ++k) {
+      residuals[k] = residuals[k * n / m];
+      used[k] = used[k * n / m];
+    }
+    residuals.erase(residuals.begin() + static_cast<std::ptrdiff_t>(m), residuals.end());
+    used.resize(m);
+  }
 
   Eigen::Quaterniond q(prediction.T_w_b.linear());
   q.normalize();

@@ -95,7 +95,7 @@ static_assert(fieldCount<mapping::MappingOptions>() == 8,
 static_assert(
     fieldCount<localization::LocalizationOptions>() == 5,
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
-static_assert(fieldCount<localization::PoseUpdateOptions>() == 8,
+static_assert(fieldCount<localization::PoseUpdateOptions>() == 9,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<PipelineConfig>() == 5,
               "PipelineConfig gained or lost a field: map it in visitConfig (see above)");
@@ -393,6 +393,9 @@ void visitPoseUpdate(O& o, V& v) {
   TWOCAM_CONFIG_KEY(planar_sigma_m, "soft planar prior: height change per frame [m]");
   TWOCAM_CONFIG_KEY(planar_sigma_rad, "soft planar prior: roll and pitch change per frame [rad]");
   TWOCAM_CONFIG_KEY(max_iterations, "Gauss-Newton iterations of the solve [-]");
+  TWOCAM_CONFIG_KEY(max_observations,
+                    "most observations in the solve, an even subset [-]; 0 = all, else >= "
+                    "min_landmarks");
 }
 
 template <typename O, typename V>

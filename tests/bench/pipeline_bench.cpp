@@ -29,6 +29,7 @@
 
 #include "frontend/cv_interop.h"
 #include "io/rawlog.h"
+#include "localization/options.h"
 #include "pipeline/config.h"
 #include "pipeline/pipeline.h"
 
@@ -90,11 +91,12 @@ double quantile(std::vector<double> v, double q) {
 
 /// Per-frame stage times of every run, reported as medians / p95 [ms].
 struct StageSamples {
-  std::vector<double> total, frontend, landmarks, mapping;
+  std::vector<double> total, frontend, landmarks, localization, mapping;
   void add(const pipeline::StageTimes& t) {
     total.push_back(t.totalMs());
     frontend.push_back(t.frontend_ms);
     landmarks.push_back(t.landmarks_ms);
+    localization.push_back(t.localization_ms);
     mapping.push_back(t.mapping_ms);
   }
   void report(benchmark::State& state, const RecordedLog& log) const {
@@ -103,13 +105,16 @@ struct StageSamples {
     state.counters["total_p95_ms"] = quantile(total, 0.95);
     state.counters["frontend_median_ms"] = quantile(frontend, 0.5);
     state.counters["landmarks_median_ms"] = quantile(landmarks, 0.5);
+    state.counters["localization_median_ms"] = quantile(localization, 0.5);
+    state.counters["localization_p95_ms"] = quantile(localization, 0.95);
     state.counters["mapping_median_ms"] = quantile(mapping, 0.5);
     state.counters["width_px"] = log.rig.width_px;
     state.counters["height_px"] = log.rig.height_px;
   }
 };
 
-void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
+/// `policy` with localisation `mode` (odometry | pnp | fused; the three baselines).
+void BM_PipelinePerFrame(benchmark::State& state, const char* policy, const char* mode) {
   const RecordedLog& log = recordedLog();
   if (!log.error.empty()) {
     state.SkipWithError(log.error.c_str());
@@ -121,6 +126,10 @@ void BM_PipelinePerFrame(benchmark::State& state, const char* policy) {
     return;
   }
   if (Status s = landmarks::parsePolicy(policy, &config.landmarks.policy); !s) {
+    state.SkipWithError(s.message().c_str());
+    return;
+  }
+  if (Status s = localization::parseMode(mode, &config.localization.mode); !s) {
     state.SkipWithError(s.message().c_str());
     return;
   }
@@ -207,10 +216,16 @@ void BM_PipelineOpenCVFrontend(benchmark::State& state) {
   samples.report(state, log);
 }
 
-BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency, "consistency")
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency_fused, "consistency", "fused")
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
-BENCHMARK_CAPTURE(BM_PipelinePerFrame, wta_lrc, "wta-lrc")
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency_pnp, "consistency", "pnp")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, consistency_odometry, "consistency", "odometry")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_PipelinePerFrame, wta_lrc_fused, "wta-lrc", "fused")
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
 BENCHMARK(BM_PipelineOpenCVFrontend)->Unit(benchmark::kMillisecond)->Iterations(3);
