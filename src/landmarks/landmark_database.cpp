@@ -162,6 +162,46 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   return Status::ok();
 }
 
+LandmarkDatabase::Gate LandmarkDatabase::estimateGate(const Landmark& l,
+                                                      const Eigen::Vector3d& uvd,
+                                                      double z_m,
+                                                      const OdometryErrorSigma& sigma) const {
+  const OdometryErrorSigma odo = accumulatedOdometrySigma(options_.tracker.odometry_noise,
+                                                          path_m_ - l.path_at_last_seen_m,
+                                                          turn_rad_ - l.turn_at_last_seen_rad);
+  const MeasurementSigma st = predictionSigmaFor(
+      options_.tracker,
+      rig_,
+      uvd,
+      z_m,
+      OdometryErrorSigma{std::min(odo.trans_m, kMapPoseErrorFactor * sigma.trans_m),
+                         std::min(odo.yaw_rad, kMapPoseErrorFactor * sigma.yaw_rad)});
+  const double g = std::sqrt(options_.tracker.gate_chi2);
+  return Gate{static_cast<float>(1.0 / (st.u_px * st.u_px)),
+              static_cast<float>(1.0 / (st.v_px * st.v_px)),
+              static_cast<float>(1.0 / (st.d_px * st.d_px)),
+              static_cast<float>(g * st.u_px),
+              static_cast<float>(g * st.v_px)};
+}
+
+template <typename Visit>
+void LandmarkDatabase::scanGate(
+    double u, double v, double gate_u, double gate_v, Visit&& visit) const {
+  const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
+  const int r0 = std::max(0, static_cast<int>(std::ceil(v - gate_v)));
+  const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(v + gate_v)));
+  const int c0 = std::max(0, static_cast<int>((u - gate_u) / kCellWidthPx));
+  const int c1 = std::min(cells_per_row - 1, static_cast<int>((u + gate_u) / kCellWidthPx));
+  for (int r = r0; r <= r1 && c0 <= c1; ++r) {
+    const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
+    for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
+         it != row_end;
+         ++it) {
+      if (!visit(*it, grid_items_[it - grid_uvd_.data()])) return;
+    }
+  }
+}
+
 Status LandmarkDatabase::correctFramePose(const Pose2& pose,
                                           const std::optional<OdometryErrorSigma>& sigma) {
   TWOCAM_CHECK(frame_hyps_ != nullptr) << "correctFramePose outside a frame";
@@ -193,8 +233,6 @@ void LandmarkDatabase::reassociateConfirmed(const OdometryErrorSigma& sigma) {
   const StereoHypotheses& hyps = *frame_hyps_;
   FrameReport* report = frame_report_;
   const float gate = static_cast<float>(options_.tracker.gate_chi2);
-  const double g = std::sqrt(options_.tracker.gate_chi2);
-  const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
   const auto explained = [&](uint32_t point_index) {
     const SalientPoint& sp = hyps.points[point_index];
     for (uint32_t k = 0; k < sp.num_hypotheses; ++k) {
@@ -210,48 +248,28 @@ void LandmarkDatabase::reassociateConfirmed(const OdometryErrorSigma& sigma) {
     const Eigen::Vector3d p_cl = T_cl_w_ * hot_[p.slot].p_w_last;
     Eigen::Vector3d uvd;
     if (p_cl.z() < options_.tracker.min_depth_m || !projectStereo(rig_, p_cl, &uvd)) continue;
-    const OdometryErrorSigma odo = accumulatedOdometrySigma(options_.tracker.odometry_noise,
-                                                            path_m_ - l.path_at_last_seen_m,
-                                                            turn_rad_ - l.turn_at_last_seen_rad);
-    const MeasurementSigma st = predictionSigmaFor(
-        options_.tracker,
-        rig_,
-        uvd,
-        p_cl.z(),
-        OdometryErrorSigma{std::min(odo.trans_m, kMapPoseErrorFactor * sigma.trans_m),
-                           std::min(odo.yaw_rad, kMapPoseErrorFactor * sigma.yaw_rad)});
-    const double inv_u = 1.0 / (st.u_px * st.u_px), inv_v = 1.0 / (st.v_px * st.v_px),
-                 inv_d = 1.0 / (st.d_px * st.d_px);
-    const double gate_u = g * st.u_px, gate_v = g * st.v_px;
-    const int r0 = std::max(0, static_cast<int>(std::ceil(uvd.y() - gate_v)));
-    const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(uvd.y() + gate_v)));
-    const int c0 = std::max(0, static_cast<int>((uvd.x() - gate_u) / kCellWidthPx));
-    const int c1 = std::min(cells_per_row - 1, static_cast<int>((uvd.x() + gate_u) / kCellWidthPx));
+    const Gate gt = estimateGate(l, uvd, p_cl.z(), sigma);
     int32_t best = -1;
     float best_d2 = gate;
     uint32_t first_point = UINT32_MAX;
     bool ambiguous = false;
-    for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
-      const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
-      for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
-           it != row_end;
-           ++it) {
-        const GridEntry& e = *it;
-        const double du = e.u - uvd.x(), dv = e.v - uvd.y(), dd = e.d - uvd.z();
-        const auto d2 = static_cast<float>(du * du * inv_u + dv * dv * inv_v + dd * dd * inv_d);
-        if (d2 > gate) continue;
-        if (first_point == UINT32_MAX) {
-          first_point = e.point_index;
-        } else if (e.point_index != first_point) {
-          ambiguous = true;
-          break;
-        }
-        if (d2 < best_d2) {
-          best = grid_items_[it - grid_uvd_.data()];
-          best_d2 = d2;
-        }
+    scanGate(uvd.x(), uvd.y(), gt.gate_u, gt.gate_v, [&](const GridEntry& e, int32_t j) {
+      const double du = e.u - uvd.x(), dv = e.v - uvd.y(), dd = e.d - uvd.z();
+      const auto d2 = static_cast<float>(du * du * gt.inv_var_u + dv * dv * gt.inv_var_v +
+                                         dd * dd * gt.inv_var_d);
+      if (d2 > gate) return true;
+      if (first_point == UINT32_MAX) {
+        first_point = e.point_index;
+      } else if (e.point_index != first_point) {
+        ambiguous = true;
+        return false;
       }
-    }
+      if (d2 < best_d2) {
+        best = j;
+        best_d2 = d2;
+      }
+      return true;
+    });
     if (best < 0 || ambiguous || explained(first_point)) continue;
     const DisparityHypothesis& h = hyps.hypotheses[best];
     associated_[p.slot] = 1;
@@ -372,19 +390,7 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
     if (has_tight_gates_) {
       Gate t{p.inv_var_u, p.inv_var_v, p.inv_var_d, p.gate_u, p.gate_v};
       if (p.confirmed) {
-        const OdometryErrorSigma odo =
-            accumulatedOdometrySigma(options_.tracker.odometry_noise,
-                                     path_m_ - l.path_at_last_seen_m,
-                                     turn_rad_ - l.turn_at_last_seen_rad);
-        const OdometryErrorSigma est{
-            std::min(odo.trans_m, kMapPoseErrorFactor * prediction_sigma_->trans_m),
-            std::min(odo.yaw_rad, kMapPoseErrorFactor * prediction_sigma_->yaw_rad)};
-        const MeasurementSigma st = predictionSigmaFor(options_.tracker, rig_, uvd, p_cl.z(), est);
-        t = Gate{static_cast<float>(1.0 / (st.u_px * st.u_px)),
-                 static_cast<float>(1.0 / (st.v_px * st.v_px)),
-                 static_cast<float>(1.0 / (st.d_px * st.d_px)),
-                 static_cast<float>(g * st.u_px),
-                 static_cast<float>(g * st.v_px)};
+        t = estimateGate(l, uvd, p_cl.z(), *prediction_sigma_);
       }
       tight_gates_.push_back(t);
     }
@@ -396,7 +402,6 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
   // Confirmed landmarks choose first: a corner they explain is not given to a candidate.
   // Candidates then compete by Mahalanobis distance; a displaced candidate counts as unseen.
   std::vector<int32_t> pred_hyp;
-  const int cells_per_row = (rig_.width_px + kCellWidthPx - 1) / kCellWidthPx;
   const bool reject_ambiguous = policy_->rejectsAmbiguousConfirmedHits();
   // One association of every prediction; `tight`: confirmed landmarks with the estimate's gates
   // (setPredictionSigma). Returns the confirmed landmarks associated.
@@ -416,10 +421,6 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
         const float inv_var_d = use_tight ? tight_gates_[i].inv_var_d : p.inv_var_d;
         const float gate_u = use_tight ? tight_gates_[i].gate_u : p.gate_u;
         const float gate_v = use_tight ? tight_gates_[i].gate_v : p.gate_v;
-        const int r0 = std::max(0, static_cast<int>(std::ceil(p.v - gate_v)));
-        const int r1 = std::min(rig_.height_px - 1, static_cast<int>(std::floor(p.v + gate_v)));
-        const int c0 = std::max(0, static_cast<int>((p.u - gate_u) / kCellWidthPx));
-        const int c1 = std::min(cells_per_row - 1, static_cast<int>((p.u + gate_u) / kCellWidthPx));
         int32_t best = -1;
         float best_d2 = gate;
         // Confirmed landmarks (consistency policy): distinct corners inside the gate. With more
@@ -430,37 +431,31 @@ void LandmarkDatabase::associate(const StereoHypotheses& hyps, FrameReport* repo
         // An ambiguous gate is not associated whatever else it holds, so the scan stops at the
         // second corner (on office the drift-widened gates of confirmed landmarks held 30
         // hypotheses on average).
-        for (int r = r0; r <= r1 && c0 <= c1 && !ambiguous; ++r) {
-          const GridEntry* row_end = grid_uvd_.data() + cell_start_[r * cells_per_row + c1 + 1];
-          for (const GridEntry* it = grid_uvd_.data() + cell_start_[r * cells_per_row + c0];
-               it != row_end;
-               ++it) {
-            const GridEntry& e = *it;
-            const float du = e.u - p.u;
-            const float dv = e.v - p.v;
-            const float dd = e.d - p.d;
-            const float d2 = du * du * inv_var_u + dv * dv * inv_var_v + dd * dd * inv_var_d;
-            if (d2 > gate) continue;
-            if (count_points) {
-              if (first_point == UINT32_MAX) {
-                first_point = e.point_index;
-              } else if (e.point_index != first_point) {
-                ambiguous = true;
-                break;
-              }
+        scanGate(p.u, p.v, gate_u, gate_v, [&](const GridEntry& e, int32_t j) {
+          const float du = e.u - p.u;
+          const float dv = e.v - p.v;
+          const float dd = e.d - p.d;
+          const float d2 = du * du * inv_var_u + dv * dv * inv_var_v + dd * dd * inv_var_d;
+          if (d2 > gate) return true;
+          if (count_points) {
+            if (first_point == UINT32_MAX) {
+              first_point = e.point_index;
+            } else if (e.point_index != first_point) {
+              ambiguous = true;
+              return false;
             }
-            if (d2 > best_d2) continue;
-            const int32_t j = grid_items_[it - grid_uvd_.data()];
-            const int32_t owner = hyp_claim_[j];
-            if (owner >= 0) {
-              // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
-              if (predictions_[owner].confirmed && pass == 1) continue;
-              if (hyp_claim_d2_[j] <= d2) continue;
-            }
-            best = j;
-            best_d2 = d2;
           }
-        }
+          if (d2 > best_d2) return true;
+          const int32_t owner = hyp_claim_[j];
+          if (owner >= 0) {
+            // Held by a confirmed landmark (pass 0) or by a nearer candidate: not available.
+            if (predictions_[owner].confirmed && pass == 1) return true;
+            if (hyp_claim_d2_[j] <= d2) return true;
+          }
+          best = j;
+          best_d2 = d2;
+          return true;
+        });
         // A confirmed landmark whose gate holds several corners cannot tell which one is its
         // own (after a long absence odometry drift has widened the gate): taking the nearest
         // would let it live on a neighbouring corner while its own is confirmed again as a

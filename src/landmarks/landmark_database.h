@@ -180,6 +180,17 @@ class LandmarkDatabase final : public AnchorPoses {
 
   /// correctFramePose's second association pass.
   void reassociateConfirmed(const OdometryErrorSigma& sigma);
+  struct Gate;
+  /// A confirmed landmark's gate at predicted (u, v, d) and depth z_m for a pose error `sigma`
+  /// relative to the map (kMapPoseErrorFactor x sigma, never wider than its odometry gate).
+  [[nodiscard]] Gate estimateGate(const Landmark& l,
+                                  const Eigen::Vector3d& uvd,
+                                  double z_m,
+                                  const OdometryErrorSigma& sigma) const;
+  /// Calls visit(entry, hypothesis index) for every hypothesis in the grid cells a gate of
+  /// half-widths (gate_u, gate_v) round (u, v) spans, row by row, until visit returns false.
+  template <typename Visit>
+  void scanGate(double u, double v, double gate_u, double gate_v, Visit&& visit) const;
   uint32_t allocateSlot();
   void releaseSlot(uint32_t slot, FrameReport* report);
   void predictAll(const Eigen::Isometry3d& T_cl_w, const StereoHypotheses& hyps);
