@@ -598,7 +598,8 @@ def plot_timings(run):
     fig, (ax, axc) = plt.subplots(2, 1, figsize=(12, 8), sharex=True,
                                   gridspec_kw=dict(height_ratios=[3, 2]))
     stages = [(s, c) for s, c in (("frontend", "tab:blue"), ("landmarks", "tab:orange"),
-                                  ("mapping", "tab:green")) if f"{s}_ms" in rows[0]]
+                                  ("localization", "tab:red"), ("mapping", "tab:green"))
+              if f"{s}_ms" in rows[0]]
     if stages:
         ys, labels = [], []
         for s, _ in stages:

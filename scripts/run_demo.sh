@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, simulate the default world (worlds/office.yaml),
-# run the whole pipeline on it (frontend, landmark database, OctoMap) and write results a person
+# run the whole pipeline on it (frontend, landmark database, localisation, OctoMap) and write results a person
 # can look at into out/ (override with TWOCAM_OUT=DIR).
 # Extra arguments go to `twocam simulate` (e.g. --frames 100 --seed 3).
 set -euo pipefail
@@ -22,9 +22,10 @@ echo "Results:"
 echo "  log (MRPT rawlog, opens in RawLogViewer): $OUT/office.rawlog  (images: $OUT/office_Images/)"
 echo "  stereo frames and true depth:             $OUT/office_preview/contact_sheet.png"
 echo "  map seen from above (landmarks, voxels):  $R/pictures/map_topdown.png"
+echo "  pose error, estimate against odometry:    $R/pictures/localization.png"
 echo "  landmark confidence, precision:           $R/pictures/confidence_histogram.png, $R/pictures/precision_vs_threshold.png"
 echo "  a frame with corners and hypotheses:      $R/pictures/sample_frame.png"
 echo "  per-frame timings:                        $R/pictures/timings.png"
 echo "  OctoMap (open with octovis):              $R/map.bt"
 echo "  metrics (METRICS.md keys):                $R/metrics.json"
-echo "  landmarks, trajectories, config:          $R/landmarks.csv, $R/trajectory_{odom,gt}.tum, $R/config_used.yaml"
+echo "  landmarks, trajectories, config:          $R/landmarks.csv, $R/trajectory_{est,odom,gt}.tum, $R/config_used.yaml"
