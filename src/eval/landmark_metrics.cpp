@@ -190,8 +190,14 @@ void LandmarkEvaluator::tallyDuplicates(const landmarks::FrameReport& report,
            uvd->y() >= -1.0 && uvd->x() <= rig_.width_px + 1.0 && uvd->y() <= rig_.height_px + 1.0;
   };
   // The older confirmed landmarks' true points in this frame's true camera, binned by pixel.
-  std::unordered_map<int64_t, std::vector<Eigen::Vector3d>> bins;
-  const auto bin_key = [](int64_t u, int64_t v) { return (v << 20) ^ (u & 0xFFFFF); };
+  std::unordered_map<uint64_t, std::vector<Eigen::Vector3d>> bins;
+  // Rows and columns offset into [0, 2^20) (projections lie within a pixel of the image), packed
+  // unsigned: a shift of a negative value is undefined.
+  const auto bin_key = [](int64_t u, int64_t v) {
+    constexpr int64_t kOffset = int64_t{1} << 19;
+    return (static_cast<uint64_t>(v + kOffset) << 20) |
+           static_cast<uint64_t>((u + kOffset) & 0xFFFFF);
+  };
   Eigen::Vector3d uvd;
   for (const auto& [id, p_w] : confirmed_true_w_) {
     if (project(p_w, &uvd)) {
