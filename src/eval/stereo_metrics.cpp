@@ -1,6 +1,5 @@
 #include "eval/stereo_metrics.h"
 
-#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -74,23 +73,6 @@ struct ErrorTally {
     m->avgerr = estimated > 0 ? abs_err_sum / static_cast<double>(estimated) : kNaN;
   }
 };
-
-void appendNumber(std::string* out, double value) {
-  if (!std::isfinite(value)) {
-    *out += "null";
-    return;
-  }
-  char buf[64];
-  const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), value, std::chars_format::fixed, 6);
-  // Huge values do not fit in fixed notation: fall back to the shortest round-trip form.
-  if (ec != std::errc()) {
-    const auto [end2, ec2] = std::to_chars(buf, buf + sizeof(buf), value);
-    TWOCAM_CHECK(ec2 == std::errc()) << "to_chars failed for " << value;
-    out->append(buf, end2);
-    return;
-  }
-  out->append(buf, end);
-}
 
 }  // namespace
 
@@ -300,44 +282,29 @@ void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics) {
   metrics->s_per_mp = width_px > 0 && height_px > 0 ? (ms / 1000.0) / mp : kNaN;
 }
 
-std::string toJson(const StereoMetrics& m, const std::string& indent) {
-  std::string out = "{\n";
-  bool first = true;
-  auto key = [&](const char* name) {
-    if (!first) out += ",\n";
-    first = false;
-    out += indent;
-    out += "  \"";
-    out += name;
-    out += "\": ";
-  };
-  auto number = [&](const char* name, double value) {
-    key(name);
-    appendNumber(&out, value);
-  };
-  auto integer = [&](const char* name, int64_t value) {
-    key(name);
-    out += std::to_string(value);
-  };
-  number("bad1", m.bad1);
-  number("bad2", m.bad2);
-  number("avgerr", m.avgerr);
-  number("density", m.density);
-  number("recall_at_k", m.recall_at_k);
-  integer("points", m.points);
-  number("ms", m.ms);
-  number("s_per_mp", m.s_per_mp);
-  integer("k", m.k);
-  number("recall_at_1", m.recall_at_1);
-  number("mean_hypotheses", m.mean_hypotheses);
-  integer("evaluated", m.evaluated);
-  integer("estimated", m.estimated);
-  number("one_answer_fraction", m.one_answer_fraction);
-  number("one_answer_precision", m.one_answer_precision);
-  out += "\n";
-  out += indent;
-  out += "}";
-  return out;
+io::Json toJsonValue(const StereoMetrics& m) {
+  using io::numberOrNull;
+  return {{"bad1", numberOrNull(m.bad1)},
+          {"bad2", numberOrNull(m.bad2)},
+          {"avgerr", numberOrNull(m.avgerr)},
+          {"density", numberOrNull(m.density)},
+          {"recall_at_k", numberOrNull(m.recall_at_k)},
+          {"points", m.points},
+          {"ms", numberOrNull(m.ms)},
+          {"s_per_mp", numberOrNull(m.s_per_mp)},
+          {"k", m.k},
+          {"recall_at_1", numberOrNull(m.recall_at_1)},
+          {"mean_hypotheses", numberOrNull(m.mean_hypotheses)},
+          {"evaluated", m.evaluated},
+          {"estimated", m.estimated},
+          {"one_answer_fraction", numberOrNull(m.one_answer_fraction)},
+          {"one_answer_precision", numberOrNull(m.one_answer_precision)}};
+}
+
+std::string toJson(const StereoMetrics& m) {
+  std::string text = io::toJsonText(toJsonValue(m), io::kMetricsJsonDigits);
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  return text;
 }
 
 Status writeJson(const std::string& path, const StereoMetrics& metrics) {

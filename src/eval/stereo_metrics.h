@@ -27,6 +27,7 @@
 #include "common/image.h"
 #include "common/status.h"
 #include "eval/disparity_io.h"
+#include "io/json.h"
 
 namespace twocam::eval {
 
@@ -148,12 +149,15 @@ Status tallySalient(const StereoHypotheses& hyps,
 /// s_per_mp = NaN.
 void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics);
 
-/// The metrics as a JSON object with METRICS.md's keys first, in this fixed order:
+/// The metrics as a JSON object (io/json.h) with METRICS.md's keys first, in this fixed order:
 /// bad1, bad2, avgerr, density, recall_at_k, points, ms, s_per_mp, then k, recall_at_1,
-/// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision. Doubles are
-/// written with 6 decimals (locale independent), NaN and infinities as null. `indent` prefixes
-/// every line after the first so the object can be nested in a larger file; no trailing newline.
-std::string toJson(const StereoMetrics& metrics, const std::string& indent = "");
+/// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision; NaN and
+/// infinities are null.
+io::Json toJsonValue(const StereoMetrics& metrics);
+
+/// Its text by TwoCam's JSON writer (io::toJsonText, 10 significant digits, one key per line);
+/// no trailing newline.
+std::string toJson(const StereoMetrics& metrics);
 
 /// Writes toJson(metrics) plus a newline to `path`. Errors name the path.
 Status writeJson(const std::string& path, const StereoMetrics& metrics);

@@ -332,12 +332,12 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
   m.k = 4;
   setTiming(11.0592, 384, 288, &m);
   const std::string json = toJson(m);
-  EXPECT_NE(json.find("\"bad1\": 12.500000,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"bad2\": 0.333333,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"bad1\": 12.5,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"bad2\": 0.3333333333,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"avgerr\": null,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"points\": 110592,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"ms\": 11.059200,"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"s_per_mp\": 0.100000,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"ms\": 11.0592,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"s_per_mp\": 0.1,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"estimated\": 0,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"one_answer_precision\": null\n}"), std::string::npos) << json;
   size_t last = 0;
@@ -363,9 +363,10 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
   }
   EXPECT_EQ(json.front(), '{');
   EXPECT_EQ(json.back(), '}');
-  const std::string nested = toJson(m, "    ");
-  EXPECT_NE(nested.find("\n      \"bad1\""), std::string::npos) << nested;
-  EXPECT_NE(nested.find("\n    }"), std::string::npos) << nested;
+  // The same value as the run's writer gives it, read back by nlohmann.
+  const io::Json back = io::Json::parse(json);
+  EXPECT_EQ(back["points"].get<int64_t>(), 110592);
+  EXPECT_TRUE(back["avgerr"].is_null());
 
   const std::string dir = test::makeTempDir("eval_json");
   ASSERT_TRUE(writeJson(dir + "/m.json", m).isOk());
