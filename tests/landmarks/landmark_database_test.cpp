@@ -7,6 +7,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include "landmarks/landmark_model.h"
 #include "landmarks/refine.h"
@@ -32,9 +33,20 @@ struct RunOutcome {
   int duplicates = 0;
 };
 
+/// How runSynthetic drives the database as a localising pipeline would: each frame predicted
+/// with the true pose moved sideways by prediction_offset_m and a small covariance
+/// (setPredictionSigma), then corrected to the true pose (correctFramePose with that sigma).
+struct Localized {
+  double prediction_offset_m = 0.0;
+  OdometryErrorSigma sigma{0.005, 0.002};  // a pose held by vision: 5 mm, 0.1 degree
+  int* reassociated = nullptr;             // receives the second pass's finds
+};
+
+/// The synthetic stream through the database with odometry poses (update()), or localised.
 RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
                         const LandmarkOptions& options,
-                        int frames) {
+                        int frames,
+                        const Localized* localized = nullptr) {
   const StereoRig rig = SyntheticStream::defaultRig();
   SyntheticStream stream(rig, stream_options);
   LandmarkDatabase db(rig, options);
@@ -43,8 +55,22 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
   FrameReport report;
   for (int k = 0; k < frames; ++k) {
     stream.next(&frame);
-    const Status s = db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report);
-    EXPECT_TRUE(s.isOk()) << s.message();
+    if (localized == nullptr) {
+      const Status s =
+          db.update(frame.frame, frame.t_ns, frame.odom_pose, frame.hypotheses, &report);
+      EXPECT_TRUE(s.isOk()) << s.message();
+    } else {
+      Pose2 predicted = frame.true_pose;
+      predicted.x_m -= localized->prediction_offset_m * std::sin(predicted.yaw_rad);
+      predicted.y_m += localized->prediction_offset_m * std::cos(predicted.yaw_rad);
+      db.setPredictionSigma(k > 0 ? std::optional<OdometryErrorSigma>(localized->sigma)
+                                  : std::nullopt);
+      EXPECT_TRUE(
+          db.beginFrame(frame.frame, frame.t_ns, predicted, frame.hypotheses, &report).isOk());
+      EXPECT_TRUE(db.correctFramePose(frame.true_pose, localized->sigma).isOk());
+      db.finishFrame();
+      if (localized->reassociated != nullptr) *localized->reassociated += report.reassociated;
+    }
     for (uint64_t id : report.removed_ids) anchor_truth.erase(id);
     for (size_t i = 0; i < report.created_ids.size(); ++i) {
       const uint32_t j = report.created_hypotheses[i];
@@ -383,17 +409,24 @@ TEST(LandmarkDatabase, RevisitedLandmarksAreReassociatedNotDuplicated) {
   EXPECT_LE(db.landmarks().size(), static_cast<size_t>(so.num_points + max_candidates));
 }
 
-TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
-  // The landmark benchmark's stream (8 x 8 m room, 8000 points, odometry drift): after six laps a
-  // confirmed landmark coming back into view finds several corners in its drift-widened gate.
-  // Taking the nearest one let it live on a neighbour while its own corner was confirmed again,
-  // so duplicates grew with every lap.
+/// The landmark benchmark's stream: an 8 x 8 m room, 8000 points, half of them detected per
+/// frame, random rivals, odometry drift.
+SyntheticStreamOptions driftingStream() {
   SyntheticStreamOptions so;
   so.seed = 20261129;
   so.num_points = 8000;
   so.half_x_m = so.half_y_m = 4.0;
   so.detection_prob = 0.5;
   so.random_rival_prob = 0.6;
+  return so;
+}
+
+TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
+  // The landmark benchmark's stream (8 x 8 m room, 8000 points, odometry drift): after six laps a
+  // confirmed landmark coming back into view finds several corners in its drift-widened gate.
+  // Taking the nearest one let it live on a neighbour while its own corner was confirmed again,
+  // so duplicates grew with every lap.
+  const SyntheticStreamOptions so = driftingStream();
   constexpr int kShort = 1000;
   constexpr int kFrames = 3000;
   // Tolerances. Some duplicates remain at any time: a landmark whose gate is ambiguous is not
@@ -437,70 +470,24 @@ TEST(LandmarkDatabase, DriftDoesNotBreedDuplicateConfirmedLandmarks) {
       << " at " << kFrames;
 }
 
-/// The drifting stream of DriftDoesNotBreedDuplicateConfirmedLandmarks run as a localising
-/// pipeline would: each frame predicted with the true pose moved sideways by
-/// prediction_offset_m and a small covariance (setPredictionSigma), then corrected to the true
-/// pose (correctFramePose with the same sigma). *reassociated counts the second pass's finds.
-RunOutcome runLocalized(const SyntheticStreamOptions& stream_options,
-                        int frames,
-                        double prediction_offset_m,
-                        int* reassociated) {
-  const StereoRig rig = SyntheticStream::defaultRig();
-  SyntheticStream stream(rig, stream_options);
-  LandmarkDatabase db(rig, LandmarkOptions());
-  std::map<uint64_t, std::pair<int, int32_t>> anchor_truth;
-  SyntheticFrame frame;
-  FrameReport report;
-  const OdometryErrorSigma sigma{0.005, 0.002};  // a pose held by vision: 5 mm, 0.1 degree
-  *reassociated = 0;
-  for (int k = 0; k < frames; ++k) {
-    stream.next(&frame);
-    Pose2 predicted = frame.true_pose;
-    predicted.x_m -= prediction_offset_m * std::sin(predicted.yaw_rad);
-    predicted.y_m += prediction_offset_m * std::cos(predicted.yaw_rad);
-    db.setPredictionSigma(k > 0 ? std::optional<OdometryErrorSigma>(sigma) : std::nullopt);
-    EXPECT_TRUE(
-        db.beginFrame(frame.frame, frame.t_ns, predicted, frame.hypotheses, &report).isOk());
-    EXPECT_TRUE(db.correctFramePose(frame.true_pose, sigma).isOk());
-    db.finishFrame();
-    *reassociated += report.reassociated;
-    for (uint64_t id : report.removed_ids) anchor_truth.erase(id);
-    for (size_t i = 0; i < report.created_ids.size(); ++i) {
-      const uint32_t j = report.created_hypotheses[i];
-      anchor_truth[report.created_ids[i]] = {frame.hypothesis_kind[j], frame.hypothesis_point[j]};
-    }
-  }
-  RunOutcome out;
-  std::map<int32_t, int> confirmed_per_point;
-  for (const Landmark& l : db.landmarks()) {
-    if (l.state != LandmarkState::kConfirmed) continue;
-    ++out.confirmed;
-    const auto it = anchor_truth.find(l.id);
-    if (it == anchor_truth.end()) continue;
-    if (confirmed_per_point[it->second.second]++ > 0) ++out.duplicates;
-    if (it->second.first == 0) ++out.correct;
-  }
-  return out;
-}
-
 TEST(LandmarkDatabase, GatesFromTheEstimateAndReassociationKeepRevisitsFromDuplicating) {
   // With the pose held (true pose, small covariance), confirmed landmarks coming back are gated
   // by that covariance instead of the odometry drift since they were last seen, and those
   // missed are re-associated after the correction: fewer duplicates than with odometry gates on
   // the same drifting stream, at the same precision.
-  SyntheticStreamOptions so;
-  so.seed = 20261129;
-  so.num_points = 8000;
-  so.half_x_m = so.half_y_m = 4.0;
-  so.detection_prob = 0.5;
-  so.random_rival_prob = 0.6;
+  const SyntheticStreamOptions so = driftingStream();
   constexpr int kFrames = 2000;
   const RunOutcome odometry = runSynthetic(so, LandmarkOptions(), kFrames);
   int reassociated = 0, reassociated_offset = 0;
-  const RunOutcome localized = runLocalized(so, kFrames, 0.0, &reassociated);
+  Localized held;
+  held.reassociated = &reassociated;
+  const RunOutcome localized = runSynthetic(so, LandmarkOptions(), kFrames, &held);
   // A prediction 3 cm off sideways every frame (beyond the estimate's gates, ~5 px at 3 m): the
   // first pass misses, the second pass with the corrected pose finds them.
-  const RunOutcome offset = runLocalized(so, kFrames, 0.03, &reassociated_offset);
+  Localized off = held;
+  off.prediction_offset_m = 0.03;
+  off.reassociated = &reassociated_offset;
+  const RunOutcome offset = runSynthetic(so, LandmarkOptions(), kFrames, &off);
   std::printf(
       "duplicates: odometry gates %d of %d confirmed (%d correct); estimate gates %d of %d "
       "(%d correct, %d re-associated); prediction 3 cm off %d of %d (%d correct, %d "
