@@ -541,12 +541,16 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                              inputs_.world->robot.frame_rate_hz,
                              s,
                              gt_track_.size());
+    } else if (localizing) {
+      m["slips"] = {{"absent", "no world file, so the true slip events are unknown"}};
     }
     m["revisits"] = revisitsJson(gt_track_, s);
   } else {
-    m["trajectory"] = {{"absent",
-                        !s.odometry_mode ? "the log has no odometry, so there is no trajectory"
-                                         : "the log has no true pose for every frame"}};
+    const std::string why = !s.odometry_mode ? "the log has no odometry, so there is no trajectory"
+                                             : "the log has no true pose for every frame";
+    m["trajectory"] = {{"absent", why}};
+    m["revisits"] = {{"absent", why}};
+    if (localizing) m["slips"] = {{"absent", why}};
   }
   if (has_gt) {
     lm = landmarks_.finish(db);
