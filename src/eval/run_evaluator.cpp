@@ -162,7 +162,8 @@ Json slipsJson(const std::vector<sim::SlipEvent>& events,
 std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io::TimedPose>& gt) {
   std::ostringstream csv;
   csv << std::setprecision(9)
-      << "frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m\n";
+      << "frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m,searched,"
+         "search_accepted\n";
   size_t next_flag = 0;
   for (size_t i = 0; i < s.pose_track.size() && i < s.records.size(); ++i) {
     const int32_t frame = s.records[i].frame;
@@ -180,7 +181,8 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
     } else {
       csv << ',';
     }
-    csv << '\n';
+    const int search = i < s.search.size() ? s.search[i] : 0;
+    csv << ',' << (search >= 1 ? 1 : 0) << ',' << (search == 2 ? 1 : 0) << '\n';
   }
   return csv.str();
 }
@@ -570,6 +572,12 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   if (localizing) {
     int visual = 0;
     for (uint8_t v : s.visual) visual += v;
+    int64_t searches = 0;
+    int64_t searches_accepted = 0;
+    for (uint8_t v : s.search) {
+      searches += v >= 1 ? 1 : 0;
+      searches_accepted += v == 2 ? 1 : 0;
+    }
     std::vector<double> used;
     for (size_t i = 0; i < s.landmarks_used.size(); ++i) {
       if (s.visual[i]) used.push_back(s.landmarks_used[i]);
@@ -580,7 +588,9 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
          numberOrNull(s.visual.empty() ? std::nan("")
                                        : static_cast<double>(visual) / s.visual.size())},
         {"landmarks_used_median", used.empty() ? Json(nullptr) : numberOrNull(median(used))},
-        {"slips_flagged", static_cast<int64_t>(s.slip_frames.size())}};
+        {"slips_flagged", static_cast<int64_t>(s.slip_frames.size())},
+        {"searches", searches},
+        {"searches_accepted", searches_accepted}};
   } else {
     m["localization"] = {{"mode", mode}};
   }

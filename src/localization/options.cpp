@@ -34,9 +34,32 @@ Status PnpOptions::validate(const char* prefix) const {
   return checkRange(p + "iterations", iterations, 1, 100000);
 }
 
+Status PoseSearchOptions::validate(const char* prefix) const {
+  const std::string p(prefix);
+  if (Status s = checkRange(p + "max_slip_m", max_slip_m, 1e-3, 2.0, "m"); !s) return s;
+  if (Status s = checkRange(p + "max_slip_deg", max_slip_deg, 0.01, 45.0, "deg"); !s) return s;
+  if (Status s = checkRange(p + "match_px", match_px, 0.1, 20.0, "px"); !s) return s;
+  if (Status s = checkRange(p + "match_disparity_px", match_disparity_px, 0.1, 20.0, "px"); !s)
+    return s;
+  if (Status s = checkRange(p + "trigger_fraction", trigger_fraction, 0.0, 1.0); !s) return s;
+  if (Status s = checkRange(p + "local_sigmas", local_sigmas, 0.0, 10.0); !s) return s;
+  if (Status s = checkRange(p + "accept_fraction", accept_fraction, 0.0, 1.0); !s) return s;
+  if (Status s = checkRange(p + "reference_frames", reference_frames, 1, 1000); !s) return s;
+  if (Status s = checkRange(p + "ambiguity_ratio", ambiguity_ratio, 0.0, 1.0); !s) return s;
+  if (Status s = checkRange(p + "min_reference", min_reference, 3, 100000); !s) return s;
+  if (Status s = checkRange(p + "max_reference", max_reference, min_reference, 100000); !s)
+    return s;
+  if (Status s = checkRange(p + "min_matches", min_matches, 3, 100000); !s) return s;
+  if (Status s = checkRange(p + "win_ratio", win_ratio, 1.0, 100.0); !s) return s;
+  if (Status s = checkRange(p + "vote_m", vote_m, 1e-3, max_slip_m, "m"); !s) return s;
+  if (Status s = checkRange(p + "vote_deg", vote_deg, 0.01, max_slip_deg, "deg"); !s) return s;
+  return checkRange(p + "scored_bins", scored_bins, 1, 1000);
+}
+
 Status LocalizationOptions::validate() const {
   if (Status s = update.validate("localization.update."); !s) return s;
   if (Status s = slip.validate("localization.slip."); !s) return s;
+  if (Status s = search.validate("localization.search."); !s) return s;
   return pnp.validate("localization.pnp.");
 }
 

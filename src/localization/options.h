@@ -65,6 +65,58 @@ struct SlipTestOptions {
   [[nodiscard]] Status validate(const char* prefix = "") const;
 };
 
+struct PoseSearchOptions {
+  /// The slip search (localization/pose_search.h): run the check and, when it fails, the search
+  /// (fused mode only).
+  bool enabled = true;
+  /// Largest pose error the search covers: position [m] and heading [deg] per axis. The slips
+  /// the issue names are 3-20 cm and 1-10 degrees; a little more leaves room for the
+  /// prediction's own error.
+  double max_slip_m = 0.25;
+  double max_slip_deg = 12.0;
+  /// One-to-one match of a landmark's projection with a hypothesis: pixel distance per axis [px]
+  /// and disparity difference [px]. About two sigma of a confirmed landmark's reprojection
+  /// (localization.update's pixel_sigma_px = 1 px) plus the predicted pose's error in normal
+  /// frames.
+  double match_px = 2.5;
+  double match_disparity_px = 1.5;
+  /// The check: the prediction holds when this fraction of the reference landmarks in view
+  /// match [-]. Frame to frame about 0.7-0.9 of them are detected and matched again
+  /// (docs/localization.md); after a slip of a degree or more, a few percent.
+  double trigger_fraction = 0.4;
+  /// The check also tries headings within local_sigmas x the prediction's yaw sigma [-] (the
+  /// odometry step's own error) before it calls the prediction wrong.
+  double local_sigmas = 3.0;
+  /// A searched pose must explain at least this fraction of the reference landmarks in view
+  /// [-]. At a slip's true pose 0.63-0.9 of them match on office_loops; the poses that rotate
+  /// about a wall (a rotation and a sideways shift that cancel on one plane) 0.45-0.52.
+  double accept_fraction = 0.6;
+  /// The reference landmarks: those the last reference_frames visual updates used [-]. One
+  /// frame is enough in a textured corridor; after a blank turn (office_loops' 8 degree slip
+  /// falls in one) the last frame saw only a handful.
+  int reference_frames = 10;
+  /// Refused as ambiguous when a searched pose two vote bins or more from the winner explains
+  /// at least this fraction of the winner's matches [-] (a periodic texture's alias).
+  double ambiguity_ratio = 0.8;
+  /// Fewest reference landmarks in view for a check or a search [-].
+  int min_reference = 12;
+  /// Most reference landmarks the search uses (an even stride over them) [-].
+  int max_reference = 120;
+  /// Acceptance: fewest matches of the searched pose [-] and how many times the prediction's
+  /// score it must reach [-]. With 10, a periodic floor (repetitive, seed 3) gave a tile alias
+  /// from a handful of landmarks in view (ATE 0.44 m against 0.011 m); the slips' poses on
+  /// office_loops and garden were found with 26 matches and more.
+  int min_matches = 20;
+  double win_ratio = 2.0;
+  /// Vote histogram bins: position [m] and heading [deg].
+  double vote_m = 0.02;
+  double vote_deg = 0.5;
+  /// Bins scored [-].
+  int scored_bins = 12;
+
+  [[nodiscard]] Status validate(const char* prefix = "") const;
+};
+
 struct PnpOptions {
   /// RANSAC inlier threshold on the reprojection error [px] and iterations [-].
   double reprojection_px = 2.0;
@@ -83,6 +135,7 @@ struct LocalizationOptions {
   bool estimate_gates = true;
   PoseUpdateOptions update;
   SlipTestOptions slip;
+  PoseSearchOptions search;
   PnpOptions pnp;
   /// Messages name the key: "localization.update.min_landmarks = 1; must be in [3, 100000]".
   [[nodiscard]] Status validate() const;

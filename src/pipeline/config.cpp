@@ -93,8 +93,10 @@ static_assert(fieldCount<landmarks::InlierRatioOptions>() == 3,
 static_assert(fieldCount<mapping::MappingOptions>() == 8,
               "MappingOptions gained or lost a field: map it in visitMapping (see above)");
 static_assert(
-    fieldCount<localization::LocalizationOptions>() == 5,
+    fieldCount<localization::LocalizationOptions>() == 6,
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
+static_assert(fieldCount<localization::PoseSearchOptions>() == 17,
+              "PoseSearchOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<localization::PoseUpdateOptions>() == 9,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<PipelineConfig>() == 5,
@@ -410,6 +412,36 @@ void visitLocalization(O& o, V& v) {
     auto& so = o.slip;
     s("window_frames", so.window_frames, "frames compared with odometry [-], in [1, 100]");
     s("chi2", so.chi2, "chi-square (3 dof) of an odometry outlier [-]");
+  });
+  v.section("search", "the slip search (localization/pose_search.h)", [&](V& s) {
+    auto& so = o.search;
+    s("enabled", so.enabled, "check the prediction and search after a slip (fused) [bool]");
+    s("max_slip_m", so.max_slip_m, "largest position error searched, per axis [m]");
+    s("max_slip_deg", so.max_slip_deg, "largest heading error searched [deg]");
+    s("match_px", so.match_px, "one-to-one match: pixel distance per axis [px]");
+    s("match_disparity_px", so.match_disparity_px, "one-to-one match: disparity difference [px]");
+    s("trigger_fraction",
+      so.trigger_fraction,
+      "the prediction holds when this fraction of the reference landmarks match [-]");
+    s("local_sigmas",
+      so.local_sigmas,
+      "the check also tries headings within this many prediction yaw sigmas [-]");
+    s("accept_fraction",
+      so.accept_fraction,
+      "a searched pose explains at least this fraction of the reference landmarks [-]");
+    s("reference_frames",
+      so.reference_frames,
+      "the reference: landmarks the last this many visual updates used [-]");
+    s("ambiguity_ratio",
+      so.ambiguity_ratio,
+      "refused when a distinct pose explains this fraction of the winner's matches [-]");
+    s("min_reference", so.min_reference, "fewest reference landmarks in view to check [-]");
+    s("max_reference", so.max_reference, "most reference landmarks the search uses [-]");
+    s("min_matches", so.min_matches, "fewest matches of an accepted pose [-]");
+    s("win_ratio", so.win_ratio, "an accepted pose explains this many times the prediction's [-]");
+    s("vote_m", so.vote_m, "vote bin: position [m]");
+    s("vote_deg", so.vote_deg, "vote bin: heading [deg]");
+    s("scored_bins", so.scored_bins, "fullest vote bins scored [-]");
   });
   v.section("pnp", "the vision-only baseline (OpenCV solvePnPRansac)", [&](V& s) {
     auto& po = o.pnp;

@@ -1,5 +1,6 @@
 #include "pipeline/pipeline.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
@@ -19,30 +20,41 @@ OdometryErrorSigma poseSigma(const Eigen::Matrix3d& cov) {
           std::sqrt(std::max(0.0, cov(2, 2)))};
 }
 
+/// References the slip search gathers from the last frame before it looks further back [-]:
+/// a few times its fewest (PoseSearchOptions::min_reference), enough that most are in view.
+constexpr size_t kEnoughReference = 50;
+
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace
 
-void Pipeline::slipTest(const Pose2& odom_pose, FrameOutput* out) {
-  // Window of the last window_frames + 1 frames; the visual motion over it against odometry's.
+void Pipeline::slipTest(const localization::PoseSearchResult& step,
+                        const Eigen::Matrix3d& step_noise,
+                        FrameOutput* out) {
+  // The last window_frames odometry steps against the steps the reference landmarks measured
+  // (PoseSearchResult::step): the sum of their errors over the window, chi-square with the
+  // summed covariances (the odometry step's, the previous estimate's and the fit's).
   const auto w = static_cast<size_t>(loc_options_.slip.window_frames);
-  window_.push_back({report_.frame, estimate_, odom_pose, out->visual});
-  if (window_.size() > w + 1) window_.erase(window_.begin());
-  if (window_.size() < w + 1 || !window_.front().visual || !window_.back().visual) return;
-  const auto motion_chi2 = [&](const WindowEntry& a, const WindowEntry& b) {
-    const Pose2 motion = localization::odometryIncrement(a.odom, b.odom);
-    const Eigen::Matrix3d cov = localization::odometryCovariance(
-        odometry_noise_, std::hypot(motion.x_m, motion.y_m), std::abs(motion.yaw_rad));
-    return localization::slipChi2(a.estimate, b.estimate, motion, cov);
-  };
-  if (motion_chi2(window_.front(), window_.back()) <= loc_options_.slip.chi2) return;
+  window_.push_back({report_.frame, step.step_measured, step.step, step.step_cov + step_noise});
+  if (window_.size() > w) window_.erase(window_.begin());
+  if (window_.size() < w) return;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const WindowEntry& e : window_) {
+    if (!e.measured) return;
+    sum += Eigen::Vector3d(e.step.x_m, e.step.y_m, e.step.yaw_rad);
+    cov += e.cov;
+  }
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
+  if (ldlt.info() != Eigen::Success || sum.dot(ldlt.solve(sum)) <= loc_options_.slip.chi2) return;
   // The step of the window that disagrees most is the slip; each is flagged once.
-  size_t worst = 1;
+  size_t worst = 0;
   double worst_chi2 = -1.0;
-  for (size_t k = 1; k < window_.size(); ++k) {
-    const double c = motion_chi2(window_[k - 1], window_[k]);
+  for (size_t k = 0; k < window_.size(); ++k) {
+    const Eigen::Vector3d d(window_[k].step.x_m, window_[k].step.y_m, window_[k].step.yaw_rad);
+    const double c = d.dot(window_[k].cov.ldlt().solve(d));
     if (c > worst_chi2) {
       worst_chi2 = c;
       worst = k;
@@ -125,13 +137,41 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   out->visual = false;
   out->landmarks_used = out->landmarks_observed = 0;
   out->slip_frame = -1;
+  double search_ms = 0.0;
+  localization::PoseSearchResult sr;
+  Eigen::Matrix3d step_noise = Eigen::Matrix3d::Zero();
   if (localizing) {
     if (has_estimate_) {
-      prediction = localization::predictPose(
-          estimate_, localization::odometryIncrement(previous_odom_, odom_pose), odometry_noise_);
+      const Pose2 increment = localization::odometryIncrement(previous_odom_, odom_pose);
+      prediction = localization::predictPose(estimate_, increment, odometry_noise_);
+      step_noise =
+          estimate_.cov + localization::odometryCovariance(odometry_noise_,
+                                                           std::hypot(increment.x_m, increment.y_m),
+                                                           std::abs(increment.yaw_rad));
     } else {
       prediction.T_w_b = toIsometry(odom_pose);  // the shared start pose
     }
+    // The slip search: when the prediction explains too few of the landmarks the last update
+    // used, a pose found from the frame's hypotheses replaces it.
+    out->searched = out->search_accepted = false;
+    out->search_reference = out->search_prediction_score = 0;
+    const auto ts = std::chrono::steady_clock::now();
+    if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled && has_estimate_) {
+      reference_w_.clear();
+      for (uint64_t id : reference_ids_) {
+        const landmarks::Landmark* l = db_.find(id);
+        if (l != nullptr && l->state == landmarks::LandmarkState::kConfirmed)
+          reference_w_.push_back(l->p_w);
+      }
+      sr = search_.run(
+          rig_, prediction.T_w_b, prediction.cov, reference_w_, hyps, loc_options_.search);
+      out->search_reference = sr.reference;
+      out->search_prediction_score = sr.prediction_score;
+      out->searched = sr.searched;
+      out->search_accepted = sr.accepted;
+      prediction.T_w_b = sr.T_w_b;
+    }
+    search_ms = msSince(ts);
     out->pose = localization::toPose2(prediction.T_w_b);
   }
   // Gates from the estimate's covariance once the estimator has one (the first frame's pose is
@@ -161,11 +201,31 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     // the estimate is kept planar too: otherwise height, roll and pitch, held only relative to
     // the prediction, would wander and the estimator's camera differ from the database's.
     estimate_.T_w_b = toIsometry(localization::toPose2(estimate_.T_w_b));
+    const bool has_estimate_before = has_estimate_;
     has_estimate_ = true;
     previous_odom_ = odom_pose;
     out->visual = r.visual;
     out->landmarks_used = r.inliers;
     out->landmarks_observed = r.observations;
+    if (r.visual) {
+      // The reference: the landmarks the last visual update used (inliers), and those of the
+      // updates before (up to reference_frames) while fewer than kEnoughReference, so that
+      // after a few frames with little in view the check still has enough.
+      recent_inliers_.emplace_back();
+      for (size_t i = 0; i < loc_obs_.size(); ++i) {
+        if (i < r.inlier.size() && r.inlier[i]) recent_inliers_.back().push_back(loc_obs_[i].id);
+      }
+      if (recent_inliers_.size() > static_cast<size_t>(loc_options_.search.reference_frames))
+        recent_inliers_.pop_front();
+      reference_ids_.clear();
+      for (auto it = recent_inliers_.rbegin(); it != recent_inliers_.rend(); ++it) {
+        if (reference_ids_.size() >= kEnoughReference) break;
+        reference_ids_.insert(reference_ids_.end(), it->begin(), it->end());
+      }
+      std::sort(reference_ids_.begin(), reference_ids_.end());
+      reference_ids_.erase(std::unique(reference_ids_.begin(), reference_ids_.end()),
+                           reference_ids_.end());
+    }
     if (r.visual) {
       out->pose = localization::toPose2(estimate_.T_w_b);
       std::optional<OdometryErrorSigma> posterior_sigma;
@@ -175,8 +235,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
         return s;
       }
     }
-    if (loc_options_.mode == Mode::kFused) slipTest(odom_pose, out);
-    out->times.localization_ms = msSince(tl);
+    if (loc_options_.mode == Mode::kFused && has_estimate_before) slipTest(sr, step_noise, out);
+    out->times.localization_ms = msSince(tl) + search_ms;
   }
   // Candidates whose corner was not detected are re-measured on this frame's images
   // (ConsistencyOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <deque>
 #include <vector>
 
 #include "common/features.h"
@@ -13,6 +14,7 @@
 #include "common/status.h"
 #include "frontend/frontend.h"
 #include "landmarks/landmark_database.h"
+#include "localization/pose_search.h"
 #include "localization/pose_update.h"
 #include "mapping/occupancy_mapper.h"
 #include "pipeline/config.h"
@@ -52,6 +54,13 @@ struct FrameOutput {
   int landmarks_observed = 0;
   /// Fused: a frame the slip test flagged as an odometry outlier in this frame's window, or -1.
   int32_t slip_frame = -1;
+  /// Fused: the slip search's check (localization/pose_search.h): reference landmarks in view
+  /// of the prediction and how many of them it explained; whether the search ran, and whether
+  /// its pose replaced the prediction.
+  int search_reference = 0;
+  int search_prediction_score = 0;
+  bool searched = false;
+  bool search_accepted = false;
   /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
   /// was not mapped (landmarks were still updated).
   bool outside_map = false;
@@ -107,7 +116,9 @@ class Pipeline {
   /// The frame's pose (localization.mode): odometry, or predicted then corrected between the
   /// database's association and its scoring. Errors only from the database.
   Status localize(int32_t frame, const Pose2& odom_pose, FrameOutput* out);
-  void slipTest(const Pose2& odom_pose, FrameOutput* out);
+  void slipTest(const localization::PoseSearchResult& step,
+                const Eigen::Matrix3d& step_noise,
+                FrameOutput* out);
 
   StereoRig rig_;
   localization::LocalizationOptions loc_options_;
@@ -115,16 +126,21 @@ class Pipeline {
   bool has_estimate_ = false;
   localization::PoseWithCovariance estimate_;
   Pose2 previous_odom_;
-  /// The slip test's window: estimates and odometry poses of the last frames, oldest first.
+  /// The slip test's window: the last frames' measured odometry step errors, oldest first.
   struct WindowEntry {
     int32_t frame;
-    localization::PoseWithCovariance estimate;
-    Pose2 odom;
-    bool visual;
+    bool measured;
+    Pose2 step;
+    Eigen::Matrix3d cov;
   };
   std::vector<WindowEntry> window_;
   int32_t last_slip_frame_ = -1;
   std::vector<localization::LandmarkObservation> loc_obs_;
+  /// The slip search, and its reference: the confirmed landmarks the last visual updates used.
+  localization::PoseSearch search_;
+  std::vector<uint64_t> reference_ids_;
+  std::deque<std::vector<uint64_t>> recent_inliers_;  // per recent visual frame, oldest first
+  std::vector<Eigen::Vector3d> reference_w_;
   frontend::Frontend frontend_;
   landmarks::LandmarkDatabase db_;
   mapping::OccupancyMapper mapper_;

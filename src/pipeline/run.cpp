@@ -91,6 +91,7 @@ Status Run::execute(const FrameSource& next,
       s.visual.push_back(fo.visual ? 1 : 0);
       s.landmarks_used.push_back(fo.landmarks_used);
       if (fo.slip_frame >= 0) s.slip_frames.push_back(fo.slip_frame);
+      s.search.push_back(fo.search_accepted ? 2 : (fo.searched ? 1 : 0));
     }
     if (callbacks.on_frame) {
       if (Status cs = callbacks.on_frame(RunFrame{frame, fo, pipe_, s.odometry_mode}); !cs)

@@ -68,6 +68,10 @@ struct RunSummary {
   std::vector<int> landmarks_used;
   /// Frames the slip test flagged as odometry outliers (fused), in order.
   std::vector<int32_t> slip_frames;
+  /// Per processed frame (odometry mode): the slip search (FrameOutput::searched,
+  /// search_accepted): 0 the prediction held (or no check), 1 searched, 2 the searched pose
+  /// replaced the prediction.
+  std::vector<uint8_t> search;
   /// Time stamp of the first frame read [ns] (the simulator's time 0).
   int64_t first_t_ns = 0;
   /// Wall time of the whole loop, reading and callbacks included [ms].

@@ -29,7 +29,7 @@ constexpr int kLandmarkKeys = 51;    // policy + tracker 12 + odometry_noise 5 +
                                      // consistency 23 + seen_count 2 + culling 3 + inlier_ratio 3
 constexpr int kMappingKeys = 8;
 // localization: mode, estimate_gates, update (9), slip (2), pnp (2).
-constexpr int kLocalizationKeys = 15;
+constexpr int kLocalizationKeys = 32;
 constexpr int kTopLevelKeys = 1;  // seed
 
 std::string readFile(const std::string& path) {

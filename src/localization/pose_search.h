@@ -1,0 +1,124 @@
+#pragma once
+/// Pose search after a slip (docs/localization.md, "Slip search"). The database associates
+/// confirmed landmarks inside gates round their predicted pixels; after a wheel slip the
+/// prediction is off by more than its covariance says (a 3 degree slip moves every pixel by
+/// ~26 px at fx = 500), the gates hold the wrong corners or none, and the update cannot see the
+/// slip. The search does not trust the prediction:
+///
+///  1. Check. The reference landmarks (those the previous frame's update used) are projected
+///     with the predicted pose and matched one-to-one to the frame's hypotheses within
+///     match_px / match_disparity_px (each salient point explains at most one landmark). When at
+///     least trigger_fraction of those in view match, the prediction holds: no search.
+///  2. Candidates. Each reference landmark's window is the box its projection sweeps over every
+///     planar pose error up to (max_slip_m, max_slip_deg); every hypothesis in that box whose
+///     stereo point has the landmark's height and range (within the slip and the disparity's
+///     depth error) is a candidate.
+///  3. Votes. Two landmarks far apart and one candidate each fix a planar pose error
+///     (dx, dy, dyaw) when the candidates' distance equals the landmarks' (a rigid pair); each
+///     rigid pair votes for its pose error in a histogram of vote_m x vote_m x vote_deg bins.
+///  4. Scores. The fullest bins' poses are scored as in step 1, one-to-one, refined by a planar
+///     least-squares fit to their matches and scored again. The best is accepted when it
+///     explains at least min_matches and at least win_ratio x as many landmarks as the
+///     prediction did (and at least trigger_fraction of the landmarks in view).
+///
+/// Deterministic: no random draws (pairs are enumerated in a fixed order).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+#include "common/features.h"
+#include "common/frames.h"
+#include "common/rig.h"
+#include "common/status.h"
+#include "localization/options.h"
+
+namespace twocam::localization {
+
+struct PoseSearchResult {
+  int reference = 0;         ///< reference landmarks in view of the prediction
+  int prediction_score = 0;  ///< of them matched one-to-one at the prediction
+  bool searched = false;     ///< the check failed and the search ran
+  bool accepted = false;     ///< the search found a pose that explains decisively more
+  int score = 0;             ///< matches at the accepted pose (0 when not accepted)
+  int rival_score = 0;       ///< best score of the searched poses distinct from the winner
+  /// Planar pose error found, in the predicted body frame: T_w_b = T_w_b_pred * correction.
+  Pose2 correction;
+  Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();  ///< the pose to predict with
+  /// The odometry step's error as the reference landmarks measure it: the planar correction of
+  /// the prediction (T_w_b_pred * step) fitted to their one-to-one matches (at the accepted
+  /// pose after a search, else at the prediction) by a robust Gauss-Newton on (u, v, d), its
+  /// covariance, and the matches fitted. The reference landmarks are those the previous
+  /// frame's pose was fitted to, so a map that disagrees with itself does not enter it: it is
+  /// the frame-to-frame visual motion against odometry's, which the slip test reads.
+  bool step_measured = false;
+  Pose2 step;
+  Eigen::Matrix3d step_cov = Eigen::Matrix3d::Zero();
+  int step_matches = 0;
+};
+
+/// The search's scratch buffers (the hypothesis grid, candidates, votes); one per pipeline, not
+/// thread-safe. Results are a pure function of the inputs.
+class PoseSearch {
+ public:
+  /// `prediction_cov`: the prediction's planar covariance (x, y, yaw; m^2, rad^2).
+  /// `reference_w`: map positions of the reference landmarks [m]; `hyps`: the frame's salient
+  /// points and disparity hypotheses. Returns the prediction unchanged unless accepted.
+  PoseSearchResult run(const StereoRig& rig,
+                       const Eigen::Isometry3d& T_w_b_predicted,
+                       const Eigen::Matrix3d& prediction_cov,
+                       const std::vector<Eigen::Vector3d>& reference_w,
+                       const StereoHypotheses& hyps,
+                       const PoseSearchOptions& options);
+
+  /// One-to-one matches of the reference landmarks at pose T_w_b against the hypotheses of the
+  /// last run() (its grid): per landmark the nearest salient point within match_px whose
+  /// hypotheses hold one within match_disparity_px, each point taken once, landmarks in input
+  /// order. Returns the count; `in_view` (optional) gets how many project into the image.
+  int score(const StereoRig& rig,
+            const Eigen::Isometry3d& T_w_b,
+            const std::vector<Eigen::Vector3d>& reference_w,
+            const StereoHypotheses& hyps,
+            const PoseSearchOptions& options,
+            int* in_view = nullptr);
+
+ private:
+  struct Candidate {
+    Eigen::Vector3d q_b;  // the hypothesis' stereo point in the true body frame [m]
+    uint32_t point;
+  };
+  void buildGrid(const StereoRig& rig, const StereoHypotheses& hyps);
+  int scoreMatches(const StereoRig& rig,
+                   const Eigen::Isometry3d& T_w_b,
+                   const std::vector<Eigen::Vector3d>& reference_w,
+                   const StereoHypotheses& hyps,
+                   const PoseSearchOptions& options,
+                   int* in_view,
+                   std::vector<std::pair<int, uint32_t>>* matches);
+
+  /// Robust planar fit of the correction to `matches_` (see PoseSearchResult::step), from
+  /// `start`; false when too few inliers.
+  bool fitStep(const StereoRig& rig,
+               const Eigen::Isometry3d& T_w_b_predicted,
+               const std::vector<Eigen::Vector3d>& reference_w,
+               const StereoHypotheses& hyps,
+               const Pose2& start,
+               PoseSearchResult* result) const;
+
+  static constexpr int kCellPx = 8;
+  int cols_ = 0, rows_ = 0;
+  std::vector<uint32_t> cell_start_;  // cols_ * rows_ + 1
+  std::vector<uint32_t> cell_points_;
+  std::vector<uint32_t> claimed_;  // per point: stamp of the scoring that took it
+  uint32_t stamp_ = 0;
+  std::vector<Candidate> candidates_;
+  std::vector<uint32_t> candidate_start_;  // per reference landmark used
+  std::vector<int64_t> votes_;
+  std::vector<std::pair<int, uint32_t>> matches_;
+};
+
+/// Planar rigid fit p_i = R(yaw) q_i + t (x, y only) by least squares; (t_x, t_y, yaw).
+Pose2 fitPlanar(const std::vector<Eigen::Vector2d>& q, const std::vector<Eigen::Vector2d>& p);
+
+}  // namespace twocam::localization
