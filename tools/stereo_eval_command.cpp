@@ -12,6 +12,7 @@
 #include "frontend/cv_interop.h"
 #include "frontend/dense_sad.h"
 #include "frontend/harris.h"
+#include "frontend/maxtree.h"
 #include "frontend/salient_sad.h"
 
 namespace twocam::tools {
@@ -39,11 +40,67 @@ double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// `--matcher maxtree`: semi-dense (dense), sparse or salient output of frontend/maxtree.h, timed
+/// on a second run like the SAD branches.
+Status evalMaxTree(const StereoEvalArgs& args, const ImageU8& left, const ImageU8& right,
+                   const eval::DisparityGroundTruth& gt, const ImageU8* mask,
+                   const eval::StereoEvalOptions& eval_options, eval::StereoMetrics* metrics,
+                   cv::Mat* picture) {
+  frontend::MaxTreeOptions options;
+  options.max_disparity_px = args.max_disp;
+  if (Status s = options.validate(); !s) return s;
+  frontend::MaxTreeMatcher matcher;
+  frontend::MaxTreeResult result;
+  if (Status s = matcher.compute(left, right, options, &result); !s) return s;  // warm-up
+  if (args.mode == "salient") {
+    frontend::HarrisOptions harris;
+    harris.target_count = std::max(
+        1,
+        static_cast<int>(
+            args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
+    harris.max_corners = 2 * harris.target_count;
+    if (Status s = harris.validate(); !s) return s;
+    frontend::HarrisDetector detector(harris);
+    std::vector<Corner> corners;
+    for (int pass = 0; pass < 4; ++pass) {  // settle the adaptive threshold, as for SAD
+      if (Status s = detector.detect(left, &corners); !s) return s;
+    }
+    StereoHypotheses hyps;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = detector.detect(left, &corners); !s) return s;
+    if (Status s = frontend::matchMaxTreeSalient(left, right, corners, options, &hyps); !s)
+      return s;
+    const double ms = msSince(t0);
+    if (Status s = eval::evaluateSalient(hyps, gt, mask, eval_options, metrics); !s) return s;
+    eval::setTiming(ms, left.width, left.height, metrics);
+    if (!args.output_image.empty()) {
+      return eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, picture);
+    }
+    return Status::ok();
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status s = matcher.compute(left, right, options, &result); !s) return s;
+  const double ms = msSince(t0);
+  const ImageF32& map = args.mode == "sparse" ? result.sparse : result.semi_dense;
+  if (Status s = eval::evaluateDense(map, gt, mask, eval_options, metrics); !s) return s;
+  eval::setTiming(ms, left.width, left.height, metrics);
+  if (!args.output_image.empty()) {
+    return eval::renderDenseEvalPicture(left, map, gt, args.max_disp, eval_options, picture);
+  }
+  return Status::ok();
+}
+
 }  // namespace
 
 int runStereoEval(const StereoEvalArgs& args) {
-  if (args.mode != "dense" && args.mode != "salient")
-    return fail("--mode must be dense or salient, got '" + args.mode + "'");
+  if (args.matcher != "sad" && args.matcher != "maxtree")
+    return fail("--matcher must be sad or maxtree, got '" + args.matcher + "'");
+  if (args.matcher == "maxtree" && (args.window_px > 0 || !args.post.empty() || args.birchfield_tomasi))
+    return fail("--window, --post and --birchfield-tomasi apply to --matcher sad only");
+  if (args.mode == "sparse" && args.matcher != "maxtree")
+    return fail("--mode sparse needs --matcher maxtree (SAD has dense and salient modes)");
+  if (args.mode != "dense" && args.mode != "salient" && args.mode != "sparse")
+    return fail("--mode must be dense, salient or sparse (maxtree), got '" + args.mode + "'");
   if (!(args.gt_scale > 0.0)) return fail("--gt-scale must be > 0");
   if (args.birchfield_tomasi && args.mode != "salient") {
     return fail(
@@ -113,7 +170,13 @@ int runStereoEval(const StereoEvalArgs& args) {
 
   eval::StereoMetrics metrics;
   cv::Mat picture;
-  if (args.mode == "dense") {
+  if (args.matcher == "maxtree") {
+    if (Status s = evalMaxTree(args, left, right, gt, mask.empty() ? nullptr : &mask, eval_options,
+                               &metrics, &picture);
+        !s) {
+      return fail(s.message());
+    }
+  } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
     if (args.window_px > 0) options.window_width_px = args.window_px;

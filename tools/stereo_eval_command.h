@@ -14,7 +14,10 @@ struct StereoEvalArgs {
   std::string mask_path;
   int border_px = 0;
   int max_disp = 0;
-  std::string mode;  // dense | salient
+  std::string mode;  // dense | salient | sparse (maxtree only)
+  /// Matcher: "sad" (1-D SAD, the default) or "maxtree" (1-D Max-Trees, frontend/maxtree.h;
+  /// dense = its semi-dense map, sparse = its sparse points, salient = its nodes at corners).
+  std::string matcher = "sad";
   std::string output_json;
   std::string output_image;
   /// Matching window width [px]; 0 = the mode's default (dense 7, salient 11).

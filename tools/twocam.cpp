@@ -83,6 +83,10 @@ int main(int argc, char** argv) {
   stereo_eval->add_flag("--birchfield-tomasi",
                         se.birchfield_tomasi,
                         "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
+  stereo_eval->add_option("--matcher",
+                          se.matcher,
+                          "sad (1-D SAD, default) or maxtree (1-D Max-Trees; --mode dense = "
+                          "semi-dense, sparse = node end points, salient = nodes at corners)");
   stereo_eval->add_option(
       "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
 
