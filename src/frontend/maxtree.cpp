@@ -81,22 +81,40 @@ Status MaxTreeOptions::validate() const {
 }
 
 void medianFilter5x5(const ImageU8& image, ImageU8* out) {
+  // Sliding histogram along each row (Huang et al. 1979): 5 values leave and 5 enter per pixel,
+  // and the median moves from its previous position; `below` counts window values < median.
+  constexpr int kRank = 12;  // 13th smallest of 25
   const int w = image.width;
   const int h = image.height;
   *out = ImageU8(w, h);
-  std::array<uint8_t, 25> win{};
+  std::array<int, 256> hist{};
   for (int v = 0; v < h; ++v) {
     std::array<const uint8_t*, 5> rows{};
     for (int k = 0; k < 5; ++k) rows[k] = image.row(clampIndex(v + k - 2, h));
+    hist.fill(0);
+    for (int j = -2; j <= 2; ++j) {
+      const int x = clampIndex(j, w);
+      for (int k = 0; k < 5; ++k) hist[rows[k][x]]++;
+    }
+    int median = 0;
+    int below = 0;
+    while (below + hist[median] <= kRank) below += hist[median++];
     uint8_t* dst = out->row(v);
-    for (int u = 0; u < w; ++u) {
-      int n = 0;
-      for (int j = -2; j <= 2; ++j) {
-        const int x = clampIndex(u + j, w);
-        for (int k = 0; k < 5; ++k) win[n++] = rows[k][x];
+    dst[0] = static_cast<uint8_t>(median);
+    for (int u = 1; u < w; ++u) {
+      const int gone = clampIndex(u - 3, w);
+      const int come = clampIndex(u + 2, w);
+      for (int k = 0; k < 5; ++k) {
+        const int a = rows[k][gone];
+        const int b = rows[k][come];
+        hist[a]--;
+        if (a < median) below--;
+        hist[b]++;
+        if (b < median) below++;
       }
-      std::nth_element(win.begin(), win.begin() + 12, win.end());
-      dst[u] = win[12];
+      while (below > kRank) below -= hist[--median];
+      while (below + hist[median] <= kRank) below += hist[median++];
+      dst[u] = static_cast<uint8_t>(median);
     }
   }
 }
