@@ -42,9 +42,13 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 /// `--matcher maxtree`: semi-dense (dense), sparse or salient output of frontend/maxtree.h, timed
 /// on a second run like the SAD branches.
-Status evalMaxTree(const StereoEvalArgs& args, const ImageU8& left, const ImageU8& right,
-                   const eval::DisparityGroundTruth& gt, const ImageU8* mask,
-                   const eval::StereoEvalOptions& eval_options, eval::StereoMetrics* metrics,
+Status evalMaxTree(const StereoEvalArgs& args,
+                   const ImageU8& left,
+                   const ImageU8& right,
+                   const eval::DisparityGroundTruth& gt,
+                   const ImageU8* mask,
+                   const eval::StereoEvalOptions& eval_options,
+                   eval::StereoMetrics* metrics,
                    cv::Mat* picture) {
   frontend::MaxTreeOptions options;
   options.max_disparity_px = args.max_disp;
@@ -95,7 +99,8 @@ Status evalMaxTree(const StereoEvalArgs& args, const ImageU8& left, const ImageU
 int runStereoEval(const StereoEvalArgs& args) {
   if (args.matcher != "sad" && args.matcher != "maxtree")
     return fail("--matcher must be sad or maxtree, got '" + args.matcher + "'");
-  if (args.matcher == "maxtree" && (args.window_px > 0 || !args.post.empty() || args.birchfield_tomasi))
+  if (args.matcher == "maxtree" &&
+      (args.window_px > 0 || !args.post.empty() || args.birchfield_tomasi))
     return fail("--window, --post and --birchfield-tomasi apply to --matcher sad only");
   if (args.mode == "sparse" && args.matcher != "maxtree")
     return fail("--mode sparse needs --matcher maxtree (SAD has dense and salient modes)");
@@ -171,8 +176,14 @@ int runStereoEval(const StereoEvalArgs& args) {
   eval::StereoMetrics metrics;
   cv::Mat picture;
   if (args.matcher == "maxtree") {
-    if (Status s = evalMaxTree(args, left, right, gt, mask.empty() ? nullptr : &mask, eval_options,
-                               &metrics, &picture);
+    if (Status s = evalMaxTree(args,
+                               left,
+                               right,
+                               gt,
+                               mask.empty() ? nullptr : &mask,
+                               eval_options,
+                               &metrics,
+                               &picture);
         !s) {
       return fail(s.message());
     }

@@ -119,8 +119,12 @@ void medianFilter5x5(const ImageU8& image, ImageU8* out) {
   }
 }
 
-Status invertedGradientImage(const ImageU8& smoothed, int quantization_levels, int sobel_size_px,
-                             ImageU8* g, Image<int16_t>* sx, Image<int16_t>* sy) {
+Status invertedGradientImage(const ImageU8& smoothed,
+                             int quantization_levels,
+                             int sobel_size_px,
+                             ImageU8* g,
+                             Image<int16_t>* sx,
+                             Image<int16_t>* sy) {
   if (smoothed.empty() || smoothed.width <= 0 || smoothed.height <= 0)
     return Status::error("invertedGradientImage: empty image");
   if (quantization_levels < 1 || quantization_levels > 256) {
@@ -128,8 +132,8 @@ Status invertedGradientImage(const ImageU8& smoothed, int quantization_levels, i
                          std::to_string(quantization_levels) + "; must be in [1, 256]");
   }
   if (sobel_size_px != 3 && sobel_size_px != 5) {
-    return Status::error("invertedGradientImage: sobel_size_px = " +
-                         std::to_string(sobel_size_px) + "; must be 3 or 5");
+    return Status::error("invertedGradientImage: sobel_size_px = " + std::to_string(sobel_size_px) +
+                         "; must be 3 or 5");
   }
   const int w = smoothed.width;
   const int h = smoothed.height;
@@ -184,7 +188,9 @@ Status invertedGradientImage(const ImageU8& smoothed, int quantization_levels, i
   return Status::ok();
 }
 
-void buildRowMaxTree(const uint8_t* g, int width, std::vector<MaxTreeNode>* nodes,
+void buildRowMaxTree(const uint8_t* g,
+                     int width,
+                     std::vector<MaxTreeNode>* nodes,
                      int32_t* pixel_node) {
   nodes->clear();
   std::vector<int32_t> stack;
@@ -237,7 +243,9 @@ void buildRowMaxTree(const uint8_t* g, int width, std::vector<MaxTreeNode>* node
   for (size_t i = 0; i < nodes->size(); ++i) (*nodes)[i].depth = depth[i];
 }
 
-void markTopNodes(int min_width_px, int max_width_px, int max_level,
+void markTopNodes(int min_width_px,
+                  int max_width_px,
+                  int max_level,
                   std::vector<MaxTreeNode>* nodes) {
   std::vector<MaxTreeNode>& ns = *nodes;
   for (MaxTreeNode& n : ns) {
@@ -270,14 +278,20 @@ void markTopNodes(int min_width_px, int max_width_px, int max_level,
   }
 }
 
-void MaxTreeMatcher::buildView(const ImageU8& image, const MaxTreeOptions& options,
-                               int max_width, View* view) {
+void MaxTreeMatcher::buildView(const ImageU8& image,
+                               const MaxTreeOptions& options,
+                               int max_width,
+                               View* view) {
   const int w = image.width;
   const int h = image.height;
   medianFilter5x5(image, &view->smoothed);
   // Options were validated: q is in range and the image is not empty.
-  (void)invertedGradientImage(view->smoothed, options.quantization_levels, options.sobel_size_px,
-                              &view->g, &view->sx, &view->sy);
+  (void)invertedGradientImage(view->smoothed,
+                              options.quantization_levels,
+                              options.sobel_size_px,
+                              &view->g,
+                              &view->sx,
+                              &view->sy);
   view->nodes.clear();
   view->node_row.clear();
   view->row_first.assign(static_cast<size_t>(h) + 1, 0);
@@ -311,9 +325,16 @@ namespace {
 
 /// The chain of `level` top nodes crossing the centre of the previous one, `dir` = -1 upwards
 /// (rows above) or +1 downwards, at most k; returns its length, fills out[0..length).
-int neighbourChain(const std::vector<MaxTreeNode>& nodes, const std::vector<int32_t>& node_row,
-                   const std::vector<int32_t>& pixel_node, int width, int height, int32_t node,
-                   int level, int dir, int k, int32_t* out) {
+int neighbourChain(const std::vector<MaxTreeNode>& nodes,
+                   const std::vector<int32_t>& node_row,
+                   const std::vector<int32_t>& pixel_node,
+                   int width,
+                   int height,
+                   int32_t node,
+                   int level,
+                   int dir,
+                   int k,
+                   int32_t* out) {
   int count = 0;
   int32_t cur = node;
   int v = node_row[node];
@@ -345,16 +366,33 @@ void MaxTreeMatcher::prepareLevel(int level, int max_width, int k, View* view) c
       const MaxTreeNode& n = view->nodes[i];
       if (n.top_level != level) continue;
       if (k > 0) {
-        neighbourChain(view->nodes, view->node_row, view->pixel_node, w, h, i, level, -1, k,
+        neighbourChain(view->nodes,
+                       view->node_row,
+                       view->pixel_node,
+                       w,
+                       h,
+                       i,
+                       level,
+                       -1,
+                       k,
                        view->up.data() + static_cast<size_t>(i) * k);
-        neighbourChain(view->nodes, view->node_row, view->pixel_node, w, h, i, level, +1, k,
+        neighbourChain(view->nodes,
+                       view->node_row,
+                       view->pixel_node,
+                       w,
+                       h,
+                       i,
+                       level,
+                       +1,
+                       k,
                        view->down.data() + static_cast<size_t>(i) * k);
       }
       // Nodes touching the image border, or too wide, are not matched (paper §2.2.1, §2.4).
       if (n.width() >= max_width || n.left_px == 0 || n.right_px == w - 1) continue;
       view->sorted.push_back(i);
     }
-    std::sort(view->sorted.begin() + view->sorted_first[v], view->sorted.end(),
+    std::sort(view->sorted.begin() + view->sorted_first[v],
+              view->sorted.end(),
               [&](int32_t a, int32_t b) {
                 return view->nodes[a].left_px < view->nodes[b].left_px ||
                        (view->nodes[a].left_px == view->nodes[b].left_px && a < b);
@@ -363,11 +401,11 @@ void MaxTreeMatcher::prepareLevel(int level, int max_width, int k, View* view) c
   view->sorted_first[h] = static_cast<int32_t>(view->sorted.size());
 }
 
-float MaxTreeMatcher::pairCost(const MaxTreeOptions& options, const View& lv, const View& rv,
-                               int32_t nl, int32_t nr) const {
+float MaxTreeMatcher::pairCost(
+    const MaxTreeOptions& options, const View& lv, const View& rv, int32_t nl, int32_t nr) const {
   const int k = neighbourhood_;
   const float alpha = options.gradient_weight;
-  auto nodeCost = [&](int32_t a, int32_t b) {
+  auto node_cost = [&](int32_t a, int32_t b) {
     const MaxTreeNode& na = lv.nodes[a];
     const MaxTreeNode& nb = rv.nodes[b];
     const int v = lv.node_row[a];
@@ -391,7 +429,7 @@ float MaxTreeMatcher::pairCost(const MaxTreeOptions& options, const View& lv, co
     const float context = kContextScale * sum / static_cast<float>(terms);
     return alpha * static_cast<float>(grad) + (1.0f - alpha) * context;
   };
-  const float self = nodeCost(nl, nr);
+  const float self = node_cost(nl, nr);
   float total = 0.0f;
   for (int s = 0; s < 2; ++s) {
     const int32_t* cl = (s == 0 ? lv.up : lv.down).data() + static_cast<size_t>(nl) * k;
@@ -399,7 +437,7 @@ float MaxTreeMatcher::pairCost(const MaxTreeOptions& options, const View& lv, co
     float sum = self;
     int terms = 1;
     for (int i = 0; i < k && cl[i] >= 0 && cr[i] >= 0; ++i) {
-      sum += nodeCost(cl[i], cr[i]);
+      sum += node_cost(cl[i], cr[i]);
       ++terms;
     }
     total += sum / static_cast<float>(terms);
@@ -407,8 +445,8 @@ float MaxTreeMatcher::pairCost(const MaxTreeOptions& options, const View& lv, co
   return total;
 }
 
-void MaxTreeMatcher::medianDisparity(const View& view, int32_t node, int k, int* dl,
-                                     int* dr) const {
+void MaxTreeMatcher::medianDisparity(
+    const View& view, int32_t node, int k, int* dl, int* dr) const {
   std::array<int32_t, kMaxNeighbourhood> chain{};
   std::array<int, 2 * kMaxNeighbourhood + 1> ls{};
   std::array<int, 2 * kMaxNeighbourhood + 1> rs{};
@@ -422,8 +460,16 @@ void MaxTreeMatcher::medianDisparity(const View& view, int32_t node, int k, int*
   add(node);
   const int level = view.nodes[node].top_level;
   for (int dir = -1; dir <= 1; dir += 2) {
-    const int len = neighbourChain(view.nodes, view.node_row, view.pixel_node, width_, height_,
-                                   node, level, dir, k, chain.data());
+    const int len = neighbourChain(view.nodes,
+                                   view.node_row,
+                                   view.pixel_node,
+                                   width_,
+                                   height_,
+                                   node,
+                                   level,
+                                   dir,
+                                   k,
+                                   chain.data());
     for (int i = 0; i < len; ++i) add(chain[i]);
   }
   // node itself is matched (callers ensure it), so count >= 1.
@@ -431,8 +477,13 @@ void MaxTreeMatcher::medianDisparity(const View& view, int32_t node, int k, int*
   *dr = upperMedian(rs.data(), count);
 }
 
-void MaxTreeMatcher::matchLevel(int level_index, const MaxTreeOptions& options, int sign, const View& from, const View& to,
-                                std::vector<int32_t>* best, std::vector<float>* best_cost,
+void MaxTreeMatcher::matchLevel(int level_index,
+                                const MaxTreeOptions& options,
+                                int sign,
+                                const View& from,
+                                const View& to,
+                                std::vector<int32_t>* best,
+                                std::vector<float>* best_cost,
                                 int64_t* candidates) const {
   const int prev_level = level_index > 0 ? options.levels[level_index - 1] : -1;
   const int max_d = options.max_disparity_px;
@@ -461,9 +512,8 @@ void MaxTreeMatcher::matchLevel(int level_index, const MaxTreeOptions& options, 
       // [left - max_d, left] (sign +1) or [left, left + max_d] (sign -1).
       const int first = sign > 0 ? node.left_px - max_d : node.left_px;
       const int last = sign > 0 ? node.left_px : node.left_px + max_d;
-      const int32_t* it = std::lower_bound(to_begin, to_end, first, [&](int32_t c, int x) {
-        return to.nodes[c].left_px < x;
-      });
+      const int32_t* it = std::lower_bound(
+          to_begin, to_end, first, [&](int32_t c, int x) { return to.nodes[c].left_px < x; });
       int32_t winner = -1;
       float winner_cost = 0.0f;
       for (; it != to_end && to.nodes[*it].left_px <= last; ++it) {
@@ -471,8 +521,8 @@ void MaxTreeMatcher::matchLevel(int level_index, const MaxTreeOptions& options, 
         const int dr = sign * (node.right_px - c.right_px);
         if (dr < 0 || dr > max_d) continue;
         if (c.left_px < lo || c.left_px > hi || c.right_px < lo || c.right_px > hi) continue;
-        const float cost = sign > 0 ? pairCost(options, from, to, n, *it)
-                                    : pairCost(options, to, from, *it, n);
+        const float cost =
+            sign > 0 ? pairCost(options, from, to, n, *it) : pairCost(options, to, from, *it, n);
         if (winner < 0 || cost < winner_cost) {
           winner = *it;
           winner_cost = cost;
@@ -484,8 +534,10 @@ void MaxTreeMatcher::matchLevel(int level_index, const MaxTreeOptions& options, 
   }
 }
 
-Status MaxTreeMatcher::compute(const ImageU8& left, const ImageU8& right,
-                               const MaxTreeOptions& options, MaxTreeResult* result) {
+Status MaxTreeMatcher::compute(const ImageU8& left,
+                               const ImageU8& right,
+                               const MaxTreeOptions& options,
+                               MaxTreeResult* result) {
   if (result == nullptr) return Status::error("MaxTreeMatcher::compute: result is null");
   if (left.empty() || right.empty()) return Status::error("MaxTreeMatcher::compute: empty image");
   if (left.width != right.width || left.height != right.height) {
@@ -496,9 +548,9 @@ Status MaxTreeMatcher::compute(const ImageU8& left, const ImageU8& right,
   }
   if (Status s = options.validate(); !s) return s;
   if (options.max_disparity_px >= left.width) {
-    return Status::error("MaxTreeOptions: max_disparity_px = " +
-                         std::to_string(options.max_disparity_px) +
-                         "; must be below the image width " + std::to_string(left.width));
+    return Status::error(
+        "MaxTreeOptions: max_disparity_px = " + std::to_string(options.max_disparity_px) +
+        "; must be below the image width " + std::to_string(left.width));
   }
   computed_ = false;
   width_ = left.width;
@@ -518,10 +570,22 @@ Status MaxTreeMatcher::compute(const ImageU8& left, const ImageU8& right,
     MaxTreeLevelStats st;
     st.level = level;
     int64_t right_candidates = 0;
-    matchLevel(static_cast<int>(li), options, +1, left_, right_, &left_.best,
-               &left_.best_cost, &st.candidates);
-    matchLevel(static_cast<int>(li), options, -1, right_, left_, &right_.best,
-               &right_.best_cost, &right_candidates);
+    matchLevel(static_cast<int>(li),
+               options,
+               +1,
+               left_,
+               right_,
+               &left_.best,
+               &left_.best_cost,
+               &st.candidates);
+    matchLevel(static_cast<int>(li),
+               options,
+               -1,
+               right_,
+               left_,
+               &right_.best,
+               &right_.best_cost,
+               &right_candidates);
     // Eq. 6: keep the pairs that are each other's winner.
     for (int32_t si : left_.sorted) {
       const int32_t r = left_.best[si];
@@ -595,7 +659,8 @@ Status MaxTreeMatcher::compute(const ImageU8& left, const ImageU8& right,
 }
 
 Status MaxTreeMatcher::hypothesesAt(const std::vector<Corner>& corners,
-                                    const MaxTreeOptions& options, StereoHypotheses* out) const {
+                                    const MaxTreeOptions& options,
+                                    StereoHypotheses* out) const {
   if (out == nullptr) return Status::error("MaxTreeMatcher::hypothesesAt: out is null");
   if (!computed_) return Status::error("MaxTreeMatcher::hypothesesAt: no successful compute()");
   if (Status s = options.validate(); !s) return s;
@@ -661,8 +726,29 @@ Status MaxTreeMatcher::hypothesesAt(const std::vector<Corner>& corners,
   return Status::ok();
 }
 
-Status matchMaxTreeSalient(const ImageU8& left, const ImageU8& right,
-                           const std::vector<Corner>& corners, const MaxTreeOptions& options,
+void sparseHypotheses(const MaxTreeResult& result, StereoHypotheses* out) {
+  out->clear();
+  out->points.reserve(result.points.size());
+  out->hypotheses.reserve(result.points.size());
+  for (const MaxTreePoint& p : result.points) {
+    SalientPoint point;
+    point.corner = Corner{p.u_px, p.v_px, 0.0f};
+    point.first_hypothesis = static_cast<uint32_t>(out->hypotheses.size());
+    point.num_hypotheses = 1;
+    DisparityHypothesis hyp;
+    hyp.d_px = p.d_px;
+    hyp.cost = p.cost;
+    hyp.point_index = static_cast<uint32_t>(out->points.size());
+    hyp.lr_consistent = true;
+    out->hypotheses.push_back(hyp);
+    out->points.push_back(point);
+  }
+}
+
+Status matchMaxTreeSalient(const ImageU8& left,
+                           const ImageU8& right,
+                           const std::vector<Corner>& corners,
+                           const MaxTreeOptions& options,
                            StereoHypotheses* out) {
   if (out == nullptr) return Status::error("matchMaxTreeSalient: out is null");
   MaxTreeMatcher matcher;

@@ -116,20 +116,28 @@ struct MaxTreeNode {
 /// 1-D case of Wilkinson's algorithm). nodes is cleared and filled; pixel_node[x] receives the
 /// index of the node owning pixel x (the node at level g[x] containing x). Nodes are in
 /// creation order, the root is the node with parent -1. width must be > 0.
-void buildRowMaxTree(const uint8_t* g, int width, std::vector<MaxTreeNode>* nodes,
+void buildRowMaxTree(const uint8_t* g,
+                     int width,
+                     std::vector<MaxTreeNode>* nodes,
                      int32_t* pixel_node);
 
 /// Sets every node's top_level for levels 0..max_level (see the file comment, step 3), -1
 /// elsewhere. A level-0 top node is a leaf with min_width_px < width < max_width_px.
-void markTopNodes(int min_width_px, int max_width_px, int max_level,
+void markTopNodes(int min_width_px,
+                  int max_width_px,
+                  int max_level,
                   std::vector<MaxTreeNode>* nodes);
 
 /// G of Eq. 1 from a median-filtered image: 255 - (|Sx| + |Sy|) / 2 (Sobel of sobel_size_px,
 /// 3 or 5, unnormalised), stretched linearly from [127, 255] to [0, 255] (clamped), then cut to
 /// multiples of 256 / q. sx, sy receive the Sobel responses (replicated border; Sy positive
 /// downwards). Fails on an empty image, bad q or bad size.
-Status invertedGradientImage(const ImageU8& smoothed, int quantization_levels, int sobel_size_px,
-                             ImageU8* g, Image<int16_t>* sx, Image<int16_t>* sy);
+Status invertedGradientImage(const ImageU8& smoothed,
+                             int quantization_levels,
+                             int sobel_size_px,
+                             ImageU8* g,
+                             Image<int16_t>* sx,
+                             Image<int16_t>* sy);
 
 /// 5x5 median filter with replicated border (step 1).
 void medianFilter5x5(const ImageU8& image, ImageU8* out);
@@ -169,7 +177,9 @@ class MaxTreeMatcher {
  public:
   /// Runs steps 1-5 on a rectified pair. Errors (result untouched): null result, empty images
   /// or images of different sizes, invalid options, max_disparity_px >= width.
-  Status compute(const ImageU8& left, const ImageU8& right, const MaxTreeOptions& options,
+  Status compute(const ImageU8& left,
+                 const ImageU8& right,
+                 const MaxTreeOptions& options,
                  MaxTreeResult* result);
 
   /// Salient API (same contract as frontend::matchSalient): after compute() on the same pair,
@@ -181,7 +191,8 @@ class MaxTreeMatcher {
   /// cheaper kept), ranked by cost, within cost_ratio of the best, at most max_hypotheses.
   /// complete is false (the method cannot say what it missed). Errors (out untouched): null
   /// out, no successful compute() yet.
-  Status hypothesesAt(const std::vector<Corner>& corners, const MaxTreeOptions& options,
+  Status hypothesesAt(const std::vector<Corner>& corners,
+                      const MaxTreeOptions& options,
                       StereoHypotheses* out) const;
 
  private:
@@ -207,11 +218,16 @@ class MaxTreeMatcher {
   };
   void buildView(const ImageU8& image, const MaxTreeOptions& options, int max_width, View* view);
   void prepareLevel(int level, int max_width, int k, View* view) const;
-  void matchLevel(int level_index, const MaxTreeOptions& options, int sign,
-                  const View& from, const View& to, std::vector<int32_t>* best,
-                  std::vector<float>* best_cost, int64_t* candidates) const;
-  [[nodiscard]] float pairCost(const MaxTreeOptions& options, const View& lv, const View& rv,
-                               int32_t nl, int32_t nr) const;
+  void matchLevel(int level_index,
+                  const MaxTreeOptions& options,
+                  int sign,
+                  const View& from,
+                  const View& to,
+                  std::vector<int32_t>* best,
+                  std::vector<float>* best_cost,
+                  int64_t* candidates) const;
+  [[nodiscard]] float pairCost(
+      const MaxTreeOptions& options, const View& lv, const View& rv, int32_t nl, int32_t nr) const;
   void medianDisparity(const View& view, int32_t node, int k, int* dl, int* dr) const;
 
   View left_;
@@ -222,10 +238,19 @@ class MaxTreeMatcher {
   int neighbourhood_ = 0;
 };
 
+/// The sparse points as a hypothesis source, for where Harris corners find no node (corners
+/// lie on texture, nodes on the uniform regions between edges; docs/matchers/maxtree.md): one
+/// SalientPoint per point in result.points order (corner = the end point, response 0,
+/// complete false), one hypothesis each (d_px, cost, rank 0, lr_consistent true: every point
+/// passed the left-right check). out is cleared first; out->t_ns is untouched.
+void sparseHypotheses(const MaxTreeResult& result, StereoHypotheses* out);
+
 /// Salient API: runs MaxTreeMatcher::compute() on the pair, then hypothesesAt(corners).
 /// Same contract and errors as frontend::matchSalient (out cleared first, untouched on error).
-Status matchMaxTreeSalient(const ImageU8& left, const ImageU8& right,
-                           const std::vector<Corner>& corners, const MaxTreeOptions& options,
+Status matchMaxTreeSalient(const ImageU8& left,
+                           const ImageU8& right,
+                           const std::vector<Corner>& corners,
+                           const MaxTreeOptions& options,
                            StereoHypotheses* out);
 
 }  // namespace twocam::frontend

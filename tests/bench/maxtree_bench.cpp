@@ -38,8 +38,8 @@ struct Tsukuba {
 const Tsukuba& tsukuba() {
   static const Tsukuba kPair = [] {
     Tsukuba t;
-    const std::filesystem::path dir = std::filesystem::path(__FILE__).parent_path() / ".." /
-                                      ".." / ".." / "shared" / "data" / "middlebury" / "tsukuba";
+    const std::filesystem::path dir = std::filesystem::path(__FILE__).parent_path() / ".." / ".." /
+                                      ".." / "shared" / "data" / "middlebury" / "tsukuba";
     t.ok = frontend::loadGrey((dir / "im3.png").string(), &t.left).isOk() &&
            frontend::loadGrey((dir / "im4.png").string(), &t.right).isOk();
     return t;
@@ -49,9 +49,9 @@ const Tsukuba& tsukuba() {
 
 void setRate(benchmark::State& state, const ImageU8& image) {
   const double mp = static_cast<double>(image.width) * image.height * 1e-6;
-  state.counters["s/MP"] = benchmark::Counter(mp * static_cast<double>(state.iterations()),
-                                              benchmark::Counter::kIsRate |
-                                                  benchmark::Counter::kInvert);
+  state.counters["s/MP"] =
+      benchmark::Counter(mp * static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 void runMaxTree(benchmark::State& state, const ImageU8& left, const ImageU8& right, int max_d) {
@@ -189,9 +189,17 @@ void BM_CvStereoSGBMTsukuba(benchmark::State& state) {
   const cv::Mat left = frontend::asMat(t.left);
   const cv::Mat right = frontend::asMat(t.right);
   constexpr int kBlock = 5;  // as BM_CvStereoSGBM: OpenCV's documented starting point
-  cv::Ptr<cv::StereoSGBM> sgbm =
-      cv::StereoSGBM::create(0, kTsukubaMaxDisparity, kBlock, 8 * kBlock * kBlock,
-                             32 * kBlock * kBlock, 1, 0, 10, 100, 1, cv::StereoSGBM::MODE_SGBM);
+  cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(0,
+                                                        kTsukubaMaxDisparity,
+                                                        kBlock,
+                                                        8 * kBlock * kBlock,
+                                                        32 * kBlock * kBlock,
+                                                        1,
+                                                        0,
+                                                        10,
+                                                        100,
+                                                        1,
+                                                        cv::StereoSGBM::MODE_SGBM);
   cv::Mat disparity;
   for (auto _ : state) {
     sgbm->compute(left, right, disparity);

@@ -4,12 +4,11 @@
 
 #include <cmath>
 #include <cstdint>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "frontend/cv_interop.h"
 #include "frontend/dense_sad.h"
@@ -495,6 +494,29 @@ TEST(MaxTreeSalient, CornersAtPatchEdgesGetTheTrueDisparityFirst) {
   EXPECT_GE(100.0 * good / static_cast<double>(h.points.size()), kMinSalientCorrectPct);
   RecordProperty("salient_correct_pct",
                  std::to_string(100.0 * good / static_cast<double>(h.points.size())));
+}
+
+TEST(MaxTreeSalient, SparsePointsBecomeOneHypothesisEach) {
+  const Pair p = makePair(160, 96, 4, 0, 0, 0, 19);
+  MaxTreeOptions o;
+  o.max_disparity_px = 10;
+  MaxTreeResult r;
+  ASSERT_TRUE(MaxTreeMatcher().compute(p.left, p.right, o, &r).isOk());
+  ASSERT_FALSE(r.points.empty());
+  StereoHypotheses h;
+  h.hypotheses.resize(5);  // cleared first
+  sparseHypotheses(r, &h);
+  ASSERT_EQ(h.points.size(), r.points.size());
+  ASSERT_EQ(h.hypotheses.size(), r.points.size());
+  for (size_t i = 0; i < r.points.size(); ++i) {
+    EXPECT_EQ(h.points[i].corner.u_px, r.points[i].u_px);
+    EXPECT_EQ(h.points[i].corner.v_px, r.points[i].v_px);
+    EXPECT_EQ(h.points[i].first_hypothesis, i);
+    EXPECT_EQ(h.points[i].num_hypotheses, 1u);
+    EXPECT_EQ(h.hypotheses[i].d_px, r.points[i].d_px);
+    EXPECT_EQ(h.hypotheses[i].point_index, i);
+    EXPECT_TRUE(h.hypotheses[i].lr_consistent);
+  }
 }
 
 TEST(MaxTreeSalient, ErrorsLeaveTheOutputUntouched) {
