@@ -826,6 +826,32 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
                            {"/nonexistent_twocam_dir", "does not exist"});
 }
 
+TEST(TwocamCli, StereoEvalMatcherOptionDispatchesAndRejectsUnknownValues) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_matcher");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string mode : {"dense", "sparse", "salient"}) {
+    SCOPED_TRACE(mode);
+    const std::string json_path = dir + "/maxtree_" + mode + ".json";
+    const RunResult r = run(stereoEvalArgs(
+        pair, "--max-disp 16 --matcher maxtree --mode " + mode + " -o " + json_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output << r.error;
+    const auto json = parseFlatJson(readFile(json_path));
+    ASSERT_TRUE(json.has_value()) << readFile(json_path);
+    EXPECT_EQ(json->count("density"), 1u);
+    EXPECT_EQ(json->count("s_per_mp"), 1u);
+  }
+  const std::string json = dir + "/out.json";
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher other"),
+                           json,
+                           {"--matcher", "other", "sad", "maxtree"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode sparse"), json, {"--mode sparse", "maxtree"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher maxtree --window 9"),
+      json,
+      {"--window", "sad"});
+}
+
 /// Middlebury Tsukuba (scale 16, 0 = no ground truth); the accuracy targets.
 struct TsukubaResult {
   RunResult run;
