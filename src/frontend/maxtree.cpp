@@ -620,22 +620,36 @@ Status MaxTreeMatcher::compute(const ImageU8& left,
     raw_cost(node.left_px, v) = raw_cost(node.right_px, v) = left_.best_cost[n];
   }
   // Sparse outlier filter: keep a point when at least as many valid points in the window are
-  // similar (within similarity_px, itself included) as are not.
+  // similar (within similarity_px, itself included) as are not. The points are sparse (~2 %),
+  // so the window is searched in per-row lists of the valid columns rather than pixel by pixel.
   out.sparse = raw;
   if (options.outlier_filter) {
     const int half = options.outlier_window_px / 2;
     const auto tol = static_cast<float>(options.similarity_px);
+    std::vector<int32_t> cols;
+    std::vector<int32_t> col_first(static_cast<size_t>(h) + 1, 0);
     for (int v = 0; v < h; ++v) {
+      col_first[v] = static_cast<int32_t>(cols.size());
+      const float* row = raw.row(v);
       for (int u = 0; u < w; ++u) {
+        if (row[u] >= 0.0f) cols.push_back(u);
+      }
+    }
+    col_first[h] = static_cast<int32_t>(cols.size());
+    for (int v = 0; v < h; ++v) {
+      for (int32_t i = col_first[v]; i < col_first[v + 1]; ++i) {
+        const int u = cols[i];
         const float d = raw(u, v);
-        if (d < 0.0f) continue;
         int similar = 0;
         int other = 0;
         for (int r = std::max(0, v - half); r <= std::min(h - 1, v + half); ++r) {
           const float* row = raw.row(r);
-          for (int c = std::max(0, u - half); c <= std::min(w - 1, u + half); ++c) {
-            if (row[c] < 0.0f) continue;
-            if (std::fabs(row[c] - d) <= tol) {
+          const int32_t* end = cols.data() + col_first[r + 1];
+          for (const int32_t* c = std::lower_bound(
+                   static_cast<const int32_t*>(cols.data() + col_first[r]), end, u - half);
+               c != end && *c <= u + half;
+               ++c) {
+            if (std::fabs(row[*c] - d) <= tol) {
               ++similar;
             } else {
               ++other;
