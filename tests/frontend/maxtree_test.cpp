@@ -417,6 +417,34 @@ TEST(MaxTreeMatcher, BadInputIsAnErrorAndLeavesTheResultUntouched) {
   EXPECT_FALSE(m.hypothesesAt({}, o, &h).isOk());  // no successful compute yet
 }
 
+TEST(MaxTreeMatcher, TinyAndOddImagesDoNotBreakIt) {
+  std::mt19937 rng(20261205);
+  std::uniform_int_distribution<int> grey(0, 255);
+  MaxTreeMatcher m;  // reused across sizes: scratch buffers must follow
+  for (int trial = 0; trial < 200; ++trial) {
+    const int w = 2 + trial % 23;
+    const int h = 1 + (trial / 23) % 9;
+    ImageU8 left(w, h);
+    ImageU8 right(w, h);
+    for (uint8_t& x : left.data) x = static_cast<uint8_t>(trial % 3 == 0 ? 77 : grey(rng));
+    for (uint8_t& x : right.data) x = static_cast<uint8_t>(trial % 3 == 0 ? 77 : grey(rng));
+    MaxTreeOptions o;
+    o.max_disparity_px = 1 + trial % (w - 1);
+    o.levels = trial % 2 == 0 ? std::vector<int>{1, 0} : std::vector<int>{2, 1, 0};
+    MaxTreeResult r;
+    ASSERT_TRUE(m.compute(left, right, o, &r).isOk()) << w << "x" << h;
+    ASSERT_EQ(r.sparse.width, w);
+    ASSERT_EQ(r.semi_dense.height, h);
+    for (const MaxTreePoint& q : r.points) {
+      ASSERT_GE(q.d_px, 0.0f);
+      ASSERT_LE(q.d_px, static_cast<float>(o.max_disparity_px));
+    }
+    StereoHypotheses hyps;
+    ASSERT_TRUE(m.hypothesesAt({Corner{0, 0, 1.0f}, Corner{w - 1, h - 1, 1.0f}}, o, &hyps).isOk());
+    ASSERT_EQ(hyps.points.size(), 2u);
+  }
+}
+
 TEST(MaxTreeOptions, ValidateNamesTheBrokenField) {
   auto message = [](const MaxTreeOptions& o) { return o.validate().message(); };
   EXPECT_TRUE(MaxTreeOptions().validate().isOk());
