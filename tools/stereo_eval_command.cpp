@@ -13,6 +13,7 @@
 #include "frontend/dense_sad.h"
 #include "frontend/harris.h"
 #include "frontend/salient_sad.h"
+#include "frontend/support_value.h"
 
 namespace twocam::tools {
 namespace fs = std::filesystem;
@@ -45,6 +46,12 @@ int runStereoEval(const StereoEvalArgs& args) {
   if (args.mode != "dense" && args.mode != "salient")
     return fail("--mode must be dense or salient, got '" + args.mode + "'");
   if (!(args.gt_scale > 0.0)) return fail("--gt-scale must be > 0");
+  if (args.matcher != "sad" && args.matcher != "support")
+    return fail("--matcher must be one of: sad, support; got '" + args.matcher + "'");
+  if (args.matcher != "support" && !args.fill.empty())
+    return fail("--fill applies to --matcher support only");
+  if (args.matcher != "sad" && (args.birchfield_tomasi || !args.post.empty()))
+    return fail("--birchfield-tomasi and --post apply to --matcher sad only");
   if (args.birchfield_tomasi && args.mode != "salient") {
     return fail(
         "--birchfield-tomasi applies to --mode salient only (the dense matcher is plain SAD)");
@@ -113,7 +120,36 @@ int runStereoEval(const StereoEvalArgs& args) {
 
   eval::StereoMetrics metrics;
   cv::Mat picture;
-  if (args.mode == "dense") {
+  if (args.mode == "dense" && args.matcher == "support") {
+    frontend::SupportValueOptions options;
+    options.max_disparity_px = args.max_disp;
+    if (args.window_px > 0) options.window_px = args.window_px;
+    if (!args.fill.empty()) {
+      if (Status s = frontend::parseSupportFill(args.fill, &options.fill); !s)
+        return fail("--fill: " + s.message());
+    }
+    if (Status s = options.validate(); !s) return fail(s.message());
+    frontend::SupportValueMatcher matcher;
+    ImageF32 disparity;
+    if (Status s = matcher.compute(left, right, options, &disparity); !s)
+      return fail(s.message());  // warm-up
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
+    const double ms = msSince(t0);
+    if (Status s = eval::evaluateDense(
+            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
+        !s) {
+      return fail(s.message());
+    }
+    eval::setTiming(ms, left.width, left.height, &metrics);
+    if (!args.output_image.empty()) {
+      if (Status s = eval::renderDenseEvalPicture(
+              left, disparity, gt, args.max_disp, eval_options, &picture);
+          !s) {
+        return fail(s.message());
+      }
+    }
+  } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
     if (args.window_px > 0) options.window_width_px = args.window_px;
@@ -166,12 +202,19 @@ int runStereoEval(const StereoEvalArgs& args) {
     for (int pass = 0; pass < kSettlingPasses; ++pass) {
       if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
     }
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
-      return fail(s.message());
+    frontend::SupportValueOptions support;
+    support.max_disparity_px = args.max_disp;
+    if (args.window_px > 0) support.window_px = args.window_px;
+    if (Status s = support.validate(); !s) return fail(s.message());
+    auto match = [&]() {
+      return args.matcher == "support"
+                 ? frontend::matchSupportValueSalient(left, right, corners, support, &hyps)
+                 : frontend::matchSalient(left, right, corners, sad, &hyps);
+    };
+    if (Status s = match(); !s) return fail(s.message());
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
-      return fail(s.message());
+    if (Status s = match(); !s) return fail(s.message());
     const double ms = msSince(t0);
     if (Status s =
             eval::evaluateSalient(hyps, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);

@@ -15,6 +15,12 @@ struct StereoEvalArgs {
   int border_px = 0;
   int max_disp = 0;
   std::string mode;  // dense | salient
+  /// Matcher: "sad" (1-D SAD, dense_sad.h / salient_sad.h) or "support" (support value,
+  /// support_value.h).
+  std::string matcher = "sad";
+  /// Support matcher, dense mode: how holes are filled ("none", "linear", "farther"; empty =
+  /// the matcher's default).
+  std::string fill;
   std::string output_json;
   std::string output_image;
   /// Matching window width [px]; 0 = the mode's default (dense 7, salient 11).

@@ -71,11 +71,17 @@ int main(int argc, char** argv) {
                    "dense (every pixel, with post-processing) or salient (Harris corners, several "
                    "hypotheses)")
       ->required();
+  stereo_eval->add_option(
+      "--matcher", se.matcher, "Matcher: sad (1-D SAD, default) or support (support value)");
+  stereo_eval->add_option(
+      "--fill",
+      se.fill,
+      "--matcher support, dense: hole filling none|linear|farther (default linear)");
   stereo_eval->add_option("-o,--output", se.output_json, "Write the metrics as JSON");
   stereo_eval->add_option(
       "--image", se.output_image, "Write a picture of disparities and errors (PNG)");
   stereo_eval->add_option(
-      "--window", se.window_px, "Window width [px] (default: dense 7, salient 11)");
+      "--window", se.window_px, "Window width [px] (default: dense 7, salient 11; support 13x13)");
   stereo_eval->add_flag("--exclude-occluded",
                         se.exclude_occluded,
                         "Evaluate only pixels the right camera sees (occlusion derived from the "
