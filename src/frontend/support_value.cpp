@@ -595,17 +595,51 @@ void continuityFilter(const std::vector<int16_t>& in,
   }
 }
 
+// Depth-edge erosion: wherever two estimates at most 3 px apart along a row or a column differ by
+// more than 1 px, the `width` pixels on the nearer side (larger disparity) that start at the
+// nearer estimate and run away from the jump are voided. A centred window that straddles a
+// depth edge is dominated by the nearer surface's texture, so the nearer surface's estimates
+// spread over the farther one by up to half a window (foreground fattening); the pixels voided
+// here are filled from the farther side afterwards. Jumps are found in `in`, voids written to out.
+void erodeDepthEdges(
+    const std::vector<int16_t>& in, int width, int height, int erosion, std::vector<int16_t>* out) {
+  if (erosion <= 0) return;
+  constexpr int kMaxGapPx = 3;
+  // One line (row or column) of n samples at in[first + i * step].
+  auto line = [&](size_t first, size_t step, int n) {
+    int prev = -1;
+    for (int i = 0; i < n; ++i) {
+      const int d = in[first + static_cast<size_t>(i) * step];
+      if (d < 0) continue;
+      if (prev >= 0 && i - prev <= kMaxGapPx) {
+        const int d_prev = in[first + static_cast<size_t>(prev) * step];
+        if (d_prev - d > 1) {  // nearer surface before the jump
+          for (int j = std::max(0, prev - erosion + 1); j <= prev; ++j)
+            (*out)[first + static_cast<size_t>(j) * step] = kNoMatch;
+        } else if (d - d_prev > 1) {  // nearer surface after it
+          for (int j = i; j < std::min(n, i + erosion); ++j)
+            (*out)[first + static_cast<size_t>(j) * step] = kNoMatch;
+        }
+      }
+      prev = i;
+    }
+  };
+  for (int v = 0; v < height; ++v) line(static_cast<size_t>(v) * width, 1, width);
+  for (int u = 0; u < width; ++u) line(static_cast<size_t>(u), static_cast<size_t>(width), height);
+}
+
 // Fills each row's holes from the nearest estimates either side (linear or farther); at a row's
 // ends the nearest estimate; rows without any estimate stay empty.
-void fillRows(SupportFill fill, int width, int height, ImageF32* map) {
+void fillRows(SupportFill fill, int max_width, int width, int height, ImageF32* map) {
   if (fill == SupportFill::kNone) return;
+  if (max_width <= 0) max_width = width;
   for (int v = 0; v < height; ++v) {
     float* row = map->row(v);
     int prev = -1;
     for (int u = 0; u <= width; ++u) {
       if (u < width && row[u] < 0.0f) continue;
       // Hole (prev, u).
-      if (u - prev > 1) {
+      if (u - prev > 1 && u - prev - 1 <= max_width) {
         if (prev < 0 && u == width) break;  // no estimate on this row
         for (int x = prev + 1; x < u; ++x) {
           if (prev < 0) {
@@ -716,6 +750,8 @@ Status SupportValueOptions::validate() const {
   }
   if (fill != SupportFill::kNone && fill != SupportFill::kLinear && fill != SupportFill::kFarther)
     return Status::error("fill = " + std::to_string(static_cast<int>(fill)) + "; unknown value");
+  if (Status s = checkRange("edge_erosion_px", edge_erosion_px, 0, 15, "px"); !s) return s;
+  if (Status s = checkRange("max_fill_px", max_fill_px, 0, 1 << 15, "px"); !s) return s;
   if (Status s = checkRange("median_px", median_px, 1, 15, "px"); !s) return s;
   if (median_px % 2 == 0)
     return Status::error("median_px = " + std::to_string(median_px) + "; must be odd");
@@ -949,6 +985,10 @@ Status SupportValueMatcher::compute(const ImageU8& left,
                    options.continuity_window_px,
                    options.continuity_min_neighbours,
                    &continuous);
+  {
+    const std::vector<int16_t> checked = continuous;
+    erodeDepthEdges(checked, width, height, options.edge_erosion_px, &continuous);
+  }
   ImageF32 out(width, height, kNoDisparity);
   right_disparity_ = ImageF32(width, height, kNoDisparity);
   for (size_t i = 0; i < pixels; ++i) {
@@ -959,7 +999,7 @@ Status SupportValueMatcher::compute(const ImageU8& left,
     if (right_d_[i] >= 0) right_disparity_.data[i] = static_cast<float>(right_d_[i]);
   }
   validated_ = out;
-  fillRows(options.fill, width, height, &out);
+  fillRows(options.fill, options.max_fill_px, width, height, &out);
   if (options.median_px > 1) {
     if (Status s = medianFilterDisparity(options.median_px, options.median_px, &out); !s) return s;
   }
@@ -1006,13 +1046,13 @@ Status matchSupportValueSalient(const ImageU8& left,
   const float min_corr = static_cast<float>(options.min_correlation);
 
   // Structures of the windows of `pad` on row v at columns x0 + sign * k, k in [0, count).
-  auto structuresAlong = [&](const std::vector<uint8_t>& pad,
-                             const std::vector<int64_t>& sum,
-                             const std::vector<int64_t>& sq,
-                             int x0,
-                             int sign,
-                             int count,
-                             int v) {
+  auto structures_along = [&](const std::vector<uint8_t>& pad,
+                              const std::vector<int64_t>& sum,
+                              const std::vector<int64_t>& sq,
+                              int x0,
+                              int sign,
+                              int count,
+                              int v) {
     for (int k = 0; k < count; ++k) {
       const int x = x0 + sign * k;
       kernels.structure(pad.data(),
@@ -1042,7 +1082,7 @@ Status matchSupportValueSalient(const ImageU8& left,
     const WindowStats ls = windowStats(left_sum, left_sq, g, u, v);
     kernels.structure(left_pad.data(), g, u, v, ls.sum, anchor.data());
     // Right windows at u - dmin - k.
-    structuresAlong(right_pad, right_sum, right_sq, u - g.dmin, -1, count, v);
+    structures_along(right_pad, right_sum, right_sq, u - g.dmin, -1, count, v);
     for (int k = 0; k < count; ++k) {
       sv[static_cast<size_t>(k)] = static_cast<int32_t>(
           planes.total -
@@ -1078,7 +1118,7 @@ Status matchSupportValueSalient(const ImageU8& left,
         uint64_t right_anchor[kMaxWords];
         kernels.structure(right_pad.data(), g, u_r, v, rs.sum, right_anchor);
         const int back_count = std::min(g.nd, g.width - u_r - g.dmin);
-        structuresAlong(left_pad, left_sum, left_sq, u_r + g.dmin, +1, back_count, v);
+        structures_along(left_pad, left_sum, left_sq, u_r + g.dmin, +1, back_count, v);
         for (int k = 0; k < back_count; ++k) {
           back[static_cast<size_t>(k)] = static_cast<int32_t>(
               planes.total -
