@@ -209,6 +209,23 @@ float fastCorrelation(int32_t cross, const PixelStats& l, const PixelStats& r, i
   return static_cast<float>(num) * l.inv_std * r.inv_std;
 }
 
+// Window sums of the padded image for image pixel (u, v), computed directly (salient).
+WindowStats directStats(const std::vector<uint8_t>& pad, const Geometry& g, int u, int v) {
+  WindowStats w;
+  for (int i = 0; i < g.win; ++i) {
+    const uint8_t* row = pad.data() + static_cast<size_t>(v + i) * g.wp + u;
+    int32_t s = 0;
+    int32_t q = 0;
+    for (int j = 0; j < g.win; ++j) {
+      s += row[j];
+      q += static_cast<int32_t>(row[j]) * row[j];
+    }
+    w.sum += s;
+    w.sq += q;
+  }
+  return w;
+}
+
 // Sum of L(window at left u) * R(window at right u_r) on row v, computed directly (salient).
 int64_t crossSum(
     const uint8_t* left_pad, const uint8_t* right_pad, const Geometry& g, int u, int u_r, int v) {
@@ -1032,11 +1049,8 @@ Status matchSupportValueSalient(const ImageU8& left,
   const WeightPlanes planes = makePlanes(options);
   const Kernels kernels = kernelsFor(options.simd);
   std::vector<uint8_t> left_pad, right_pad;
-  std::vector<int64_t> left_sum, left_sq, right_sum, right_sq;
   padImage(left, g, &left_pad);
   padImage(right, g, &right_pad);
-  integrate(left_pad, g, &left_sum, &left_sq);
-  integrate(right_pad, g, &right_sum, &right_sq);
 
   const size_t words = static_cast<size_t>(g.words);
   std::vector<uint64_t> anchor(words);
@@ -1045,22 +1059,29 @@ Status matchSupportValueSalient(const ImageU8& left,
   std::vector<int32_t> back(static_cast<size_t>(g.nd));
   const float min_corr = static_cast<float>(options.min_correlation);
 
-  // Structures of the windows of `pad` on row v at columns x0 + sign * k, k in [0, count).
-  auto structures_along = [&](const std::vector<uint8_t>& pad,
-                              const std::vector<int64_t>& sum,
-                              const std::vector<int64_t>& sq,
-                              int x0,
-                              int sign,
-                              int count,
-                              int v) {
-    for (int k = 0; k < count; ++k) {
-      const int x = x0 + sign * k;
-      kernels.structure(pad.data(),
-                        g,
-                        x,
-                        v,
-                        windowStats(sum, sq, g, x, v).sum,
-                        others.data() + static_cast<size_t>(k) * words);
+  // Structures of the windows of `pad` on row v at columns x0 + sign * k, k in [0, count); their
+  // sums slide along the row over column sums of the window rows (no integral image: a call
+  // touches only the corners' rows).
+  std::vector<int32_t> column_sums;
+  auto structures_along = [&](const std::vector<uint8_t>& pad, int x0, int sign, int count, int v) {
+    if (count <= 0) return;
+    const int first = sign > 0 ? x0 : x0 - count + 1;  // leftmost window
+    const int span = count + g.win - 1;
+    column_sums.assign(static_cast<size_t>(span), 0);
+    for (int i = 0; i < g.win; ++i) {
+      const uint8_t* row = pad.data() + static_cast<size_t>(v + i) * g.wp + first;
+      for (int x = 0; x < span; ++x) column_sums[static_cast<size_t>(x)] += row[x];
+    }
+    int64_t sum = 0;
+    for (int x = 0; x < g.win; ++x) sum += column_sums[static_cast<size_t>(x)];
+    for (int j = 0; j < count; ++j) {  // window first + j
+      if (j > 0) {
+        sum += column_sums[static_cast<size_t>(j + g.win - 1)] -
+               column_sums[static_cast<size_t>(j - 1)];
+      }
+      const int k = sign > 0 ? j : count - 1 - j;
+      kernels.structure(
+          pad.data(), g, first + j, v, sum, others.data() + static_cast<size_t>(k) * words);
     }
   };
 
@@ -1079,10 +1100,10 @@ Status matchSupportValueSalient(const ImageU8& left,
     const uint32_t point_index = static_cast<uint32_t>(out->points.size());
     const int count = u < g.dmin ? 0 : std::min(g.nd, u - g.dmin + 1);
     const bool cut_short = count < g.nd;
-    const WindowStats ls = windowStats(left_sum, left_sq, g, u, v);
+    const WindowStats ls = directStats(left_pad, g, u, v);
     kernels.structure(left_pad.data(), g, u, v, ls.sum, anchor.data());
     // Right windows at u - dmin - k.
-    structures_along(right_pad, right_sum, right_sq, u - g.dmin, -1, count, v);
+    structures_along(right_pad, u - g.dmin, -1, count, v);
     for (int k = 0; k < count; ++k) {
       sv[static_cast<size_t>(k)] = static_cast<int32_t>(
           planes.total -
@@ -1099,7 +1120,7 @@ Status matchSupportValueSalient(const ImageU8& left,
       const int d = g.dmin + cand[q];
       const float r = correlation(crossSum(left_pad.data(), right_pad.data(), g, u, u - d, v),
                                   ls,
-                                  windowStats(right_sum, right_sq, g, u - d, v),
+                                  directStats(right_pad, g, u - d, v),
                                   g.n);
       if (r >= min_corr) scored[kept++] = {d, r};
     }
@@ -1114,11 +1135,11 @@ Status matchSupportValueSalient(const ImageU8& left,
       if (options.lr_tolerance_px >= 0) {
         // Right window at u_r matched back along the left row: left windows at u_r + dmin + k.
         const int u_r = u - scored[q].d;
-        const WindowStats rs = windowStats(right_sum, right_sq, g, u_r, v);
+        const WindowStats rs = directStats(right_pad, g, u_r, v);
         uint64_t right_anchor[kMaxWords];
         kernels.structure(right_pad.data(), g, u_r, v, rs.sum, right_anchor);
         const int back_count = std::min(g.nd, g.width - u_r - g.dmin);
-        structures_along(left_pad, left_sum, left_sq, u_r + g.dmin, +1, back_count, v);
+        structures_along(left_pad, u_r + g.dmin, +1, back_count, v);
         for (int k = 0; k < back_count; ++k) {
           back[static_cast<size_t>(k)] = static_cast<int32_t>(
               planes.total -
@@ -1139,7 +1160,7 @@ Status matchSupportValueSalient(const ImageU8& left,
           const int d = g.dmin + back_cand[b];
           const float r =
               correlation(crossSum(left_pad.data(), right_pad.data(), g, u_r + d, u_r, v),
-                          windowStats(left_sum, left_sq, g, u_r + d, v),
+                          directStats(left_pad, g, u_r + d, v),
                           rs,
                           g.n);
           if (r > best) {
