@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
   stereo_eval->add_option(
       "--fill",
       se.fill,
-      "--matcher support, dense: hole filling none|linear|farther (default linear)");
+      "--matcher support, dense: hole filling none|linear|farther (default farther)");
   stereo_eval->add_option("-o,--output", se.output_json, "Write the metrics as JSON");
   stereo_eval->add_option(
       "--image", se.output_image, "Write a picture of disparities and errors (PNG)");
