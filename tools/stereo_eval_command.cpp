@@ -120,6 +120,17 @@ int runStereoEval(const StereoEvalArgs& args) {
 
   eval::StereoMetrics metrics;
   cv::Mat picture;
+  // A dense map and its time: metrics, timing and (when asked) the picture.
+  auto scoreDense = [&](const ImageF32& disparity, double ms) -> Status {
+    if (Status s = eval::evaluateDense(
+            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
+        !s) {
+      return s;
+    }
+    eval::setTiming(ms, left.width, left.height, &metrics);
+    if (args.output_image.empty()) return Status::ok();
+    return eval::renderDenseEvalPicture(left, disparity, gt, args.max_disp, eval_options, &picture);
+  };
   if (args.mode == "dense" && args.matcher == "support") {
     frontend::SupportValueOptions options;
     options.max_disparity_px = args.max_disp;
@@ -135,20 +146,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
-    const double ms = msSince(t0);
-    if (Status s = eval::evaluateDense(
-            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
-        !s) {
-      return fail(s.message());
-    }
-    eval::setTiming(ms, left.width, left.height, &metrics);
-    if (!args.output_image.empty()) {
-      if (Status s = eval::renderDenseEvalPicture(
-              left, disparity, gt, args.max_disp, eval_options, &picture);
-          !s) {
-        return fail(s.message());
-      }
-    }
+    if (Status s = scoreDense(disparity, msSince(t0)); !s) return fail(s.message());
   } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
@@ -164,20 +162,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
-    const double ms = msSince(t0);
-    if (Status s = eval::evaluateDense(
-            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
-        !s) {
-      return fail(s.message());
-    }
-    eval::setTiming(ms, left.width, left.height, &metrics);
-    if (!args.output_image.empty()) {
-      if (Status s = eval::renderDenseEvalPicture(
-              left, disparity, gt, args.max_disp, eval_options, &picture);
-          !s) {
-        return fail(s.message());
-      }
-    }
+    if (Status s = scoreDense(disparity, msSince(t0)); !s) return fail(s.message());
   } else {
     frontend::HarrisOptions harris;
     harris.target_count = std::max(
@@ -205,7 +190,9 @@ int runStereoEval(const StereoEvalArgs& args) {
     frontend::SupportValueOptions support;
     support.max_disparity_px = args.max_disp;
     if (args.window_px > 0) support.window_px = args.window_px;
-    if (Status s = support.validate(); !s) return fail(s.message());
+    if (args.matcher == "support") {
+      if (Status s = support.validate(); !s) return fail(s.message());
+    }
     auto match = [&]() {
       return args.matcher == "support"
                  ? frontend::matchSupportValueSalient(left, right, corners, support, &hyps)

@@ -917,16 +917,20 @@ Status SupportValueMatcher::compute(const ImageU8& left,
         }
       }
     }
-    int cand[kMaxCandidates];
-    bool dropped = false;
-    // Left view: pixel u, disparities dmin + k with k <= u - dmin.
-    int16_t* ld = left_d_.data() + row0;
-    float* ls = left_score_.data() + row0;
-    for (int u = g.dmin; u < width; ++u) {
-      const int count = std::min(g.nd, u - g.dmin + 1);
-      const size_t base = static_cast<size_t>(u) * g.nd;
+    // One pixel's decision: candidates from the support values at row_support[base + k * stride]
+    // (k = 0 .. count - 1, disparity dmin + k, left pixel u_left0 + k * left_step), winner by
+    // correlation. Writes the disparity and its correlation when it reaches min_correlation.
+    auto decide = [&](size_t base,
+                      size_t stride,
+                      int count,
+                      int u_left0,
+                      int left_step,
+                      int16_t* d_out,
+                      float* score_out) {
+      int cand[kMaxCandidates];
+      bool dropped = false;
       const int n = selectCandidates(support_row + base,
-                                     1,
+                                     static_cast<int>(stride),
                                      count,
                                      options.candidate_margin,
                                      options.max_candidates,
@@ -935,17 +939,24 @@ Status SupportValueMatcher::compute(const ImageU8& left,
       float best = kNoCorrelation;
       int best_d = kNoMatch;
       for (int c = 0; c < n; ++c) {
-        const float r = correlate(u, v, cand[c], best_offset_[base + cand[c]]);
+        const size_t i = base + static_cast<size_t>(cand[c]) * stride;
+        const float r = correlate(u_left0 + cand[c] * left_step, v, cand[c], best_offset_[i]);
         if (r > best) {
           best = r;
           best_d = g.dmin + cand[c];
         }
       }
-      if (best_d >= 0 && best >= min_corr) {
-        ld[u] = static_cast<int16_t>(best_d);
-        ls[u] = best;
-        ++stats.matched;
-      }
+      if (best_d < 0 || best < min_corr) return false;
+      *d_out = static_cast<int16_t>(best_d);
+      *score_out = best;
+      return true;
+    };
+    // Left view: pixel u, disparities dmin + k with k <= u - dmin.
+    int16_t* ld = left_d_.data() + row0;
+    float* ls = left_score_.data() + row0;
+    for (int u = g.dmin; u < width; ++u) {
+      const int count = std::min(g.nd, u - g.dmin + 1);
+      if (decide(static_cast<size_t>(u) * g.nd, 1, count, u, 0, ld + u, ls + u)) ++stats.matched;
     }
     // Right view: pixel u_r meets left pixel u_r + d; its curve runs along the diagonal of the
     // row's support values (stride nd + 1).
@@ -953,29 +964,13 @@ Status SupportValueMatcher::compute(const ImageU8& left,
     float* rs = right_score_.data() + row0;
     for (int u_r = 0; u_r + g.dmin < width; ++u_r) {
       const int count = std::min(g.nd, width - u_r - g.dmin);
-      const size_t base = static_cast<size_t>(u_r + g.dmin) * g.nd;
-      const int n = selectCandidates(support_row + base,
-                                     g.nd + 1,
-                                     count,
-                                     options.candidate_margin,
-                                     options.max_candidates,
-                                     cand,
-                                     &dropped);
-      float best = kNoCorrelation;
-      int best_d = kNoMatch;
-      for (int c = 0; c < n; ++c) {
-        const int d = g.dmin + cand[c];
-        const size_t i = base + static_cast<size_t>(cand[c]) * (g.nd + 1);
-        const float r = correlate(u_r + d, v, cand[c], best_offset_[i]);
-        if (r > best) {
-          best = r;
-          best_d = d;
-        }
-      }
-      if (best_d >= 0 && best >= min_corr) {
-        rd[u_r] = static_cast<int16_t>(best_d);
-        rs[u_r] = best;
-      }
+      decide(static_cast<size_t>(u_r + g.dmin) * g.nd,
+             static_cast<size_t>(g.nd) + 1,
+             count,
+             u_r + g.dmin,
+             1,
+             rd + u_r,
+             rs + u_r);
     }
     if (options.ordering) {
       orderRow(width, -1, ld, ls, &stack);
