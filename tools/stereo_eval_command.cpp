@@ -121,7 +121,7 @@ int runStereoEval(const StereoEvalArgs& args) {
   eval::StereoMetrics metrics;
   cv::Mat picture;
   // A dense map and its time: metrics, timing and (when asked) the picture.
-  auto scoreDense = [&](const ImageF32& disparity, double ms) -> Status {
+  auto score_dense = [&](const ImageF32& disparity, double ms) -> Status {
     if (Status s = eval::evaluateDense(
             disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
         !s) {
@@ -146,7 +146,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
-    if (Status s = scoreDense(disparity, msSince(t0)); !s) return fail(s.message());
+    if (Status s = score_dense(disparity, msSince(t0)); !s) return fail(s.message());
   } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
@@ -162,7 +162,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
-    if (Status s = scoreDense(disparity, msSince(t0)); !s) return fail(s.message());
+    if (Status s = score_dense(disparity, msSince(t0)); !s) return fail(s.message());
   } else {
     frontend::HarrisOptions harris;
     harris.target_count = std::max(
