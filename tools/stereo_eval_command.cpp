@@ -14,6 +14,7 @@
 #include "frontend/harris.h"
 #include "frontend/maxtree.h"
 #include "frontend/salient_sad.h"
+#include "frontend/support_value.h"
 
 namespace twocam::tools {
 namespace fs = std::filesystem;
@@ -97,13 +98,16 @@ Status evalMaxTree(const StereoEvalArgs& args,
 }  // namespace
 
 int runStereoEval(const StereoEvalArgs& args) {
-  if (args.matcher != "sad" && args.matcher != "maxtree")
-    return fail("--matcher must be sad or maxtree, got '" + args.matcher + "'");
-  if (args.matcher == "maxtree" &&
-      (args.window_px > 0 || !args.post.empty() || args.birchfield_tomasi))
-    return fail("--window, --post and --birchfield-tomasi apply to --matcher sad only");
+  if (args.matcher != "sad" && args.matcher != "support" && args.matcher != "maxtree")
+    return fail("--matcher must be one of: sad, support, maxtree; got '" + args.matcher + "'");
+  if (args.matcher == "maxtree" && args.window_px > 0)
+    return fail("--window applies to --matcher sad and support only");
+  if (args.matcher != "support" && !args.fill.empty())
+    return fail("--fill applies to --matcher support only");
+  if (args.matcher != "sad" && (args.birchfield_tomasi || !args.post.empty()))
+    return fail("--birchfield-tomasi and --post apply to --matcher sad only");
   if (args.mode == "sparse" && args.matcher != "maxtree")
-    return fail("--mode sparse needs --matcher maxtree (SAD has dense and salient modes)");
+    return fail("--mode sparse needs --matcher maxtree (the others have dense and salient modes)");
   if (args.mode != "dense" && args.mode != "salient" && args.mode != "sparse")
     return fail("--mode must be dense, salient or sparse (maxtree), got '" + args.mode + "'");
   if (!(args.gt_scale > 0.0)) return fail("--gt-scale must be > 0");
@@ -175,6 +179,17 @@ int runStereoEval(const StereoEvalArgs& args) {
 
   eval::StereoMetrics metrics;
   cv::Mat picture;
+  // A dense map and its time: metrics, timing and (when asked) the picture.
+  auto score_dense = [&](const ImageF32& disparity, double ms) -> Status {
+    if (Status s = eval::evaluateDense(
+            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
+        !s) {
+      return s;
+    }
+    eval::setTiming(ms, left.width, left.height, &metrics);
+    if (args.output_image.empty()) return Status::ok();
+    return eval::renderDenseEvalPicture(left, disparity, gt, args.max_disp, eval_options, &picture);
+  };
   if (args.matcher == "maxtree") {
     if (Status s = evalMaxTree(args,
                                left,
@@ -187,6 +202,22 @@ int runStereoEval(const StereoEvalArgs& args) {
         !s) {
       return fail(s.message());
     }
+  } else if (args.mode == "dense" && args.matcher == "support") {
+    frontend::SupportValueOptions options;
+    options.max_disparity_px = args.max_disp;
+    if (args.window_px > 0) options.window_px = args.window_px;
+    if (!args.fill.empty()) {
+      if (Status s = frontend::parseSupportFill(args.fill, &options.fill); !s)
+        return fail("--fill: " + s.message());
+    }
+    if (Status s = options.validate(); !s) return fail(s.message());
+    frontend::SupportValueMatcher matcher;
+    ImageF32 disparity;
+    if (Status s = matcher.compute(left, right, options, &disparity); !s)
+      return fail(s.message());  // warm-up
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
+    if (Status s = score_dense(disparity, msSince(t0)); !s) return fail(s.message());
   } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
@@ -202,20 +233,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
-    const double ms = msSince(t0);
-    if (Status s = eval::evaluateDense(
-            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
-        !s) {
-      return fail(s.message());
-    }
-    eval::setTiming(ms, left.width, left.height, &metrics);
-    if (!args.output_image.empty()) {
-      if (Status s = eval::renderDenseEvalPicture(
-              left, disparity, gt, args.max_disp, eval_options, &picture);
-          !s) {
-        return fail(s.message());
-      }
-    }
+    if (Status s = score_dense(disparity, msSince(t0)); !s) return fail(s.message());
   } else {
     frontend::HarrisOptions harris;
     harris.target_count = std::max(
@@ -240,12 +258,21 @@ int runStereoEval(const StereoEvalArgs& args) {
     for (int pass = 0; pass < kSettlingPasses; ++pass) {
       if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
     }
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
-      return fail(s.message());
+    frontend::SupportValueOptions support;
+    support.max_disparity_px = args.max_disp;
+    if (args.window_px > 0) support.window_px = args.window_px;
+    if (args.matcher == "support") {
+      if (Status s = support.validate(); !s) return fail(s.message());
+    }
+    auto match = [&]() {
+      return args.matcher == "support"
+                 ? frontend::matchSupportValueSalient(left, right, corners, support, &hyps)
+                 : frontend::matchSalient(left, right, corners, sad, &hyps);
+    };
+    if (Status s = match(); !s) return fail(s.message());
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
-      return fail(s.message());
+    if (Status s = match(); !s) return fail(s.message());
     const double ms = msSince(t0);
     if (Status s =
             eval::evaluateSalient(hyps, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);

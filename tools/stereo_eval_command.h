@@ -15,9 +15,13 @@ struct StereoEvalArgs {
   int border_px = 0;
   int max_disp = 0;
   std::string mode;  // dense | salient | sparse (maxtree only)
-  /// Matcher: "sad" (1-D SAD, the default) or "maxtree" (1-D Max-Trees, frontend/maxtree.h;
-  /// dense = its semi-dense map, sparse = its sparse points, salient = its nodes at corners).
+  /// Matcher: "sad" (1-D SAD, the default: dense_sad.h / salient_sad.h), "support" (support
+  /// value, support_value.h) or "maxtree" (1-D Max-Trees, maxtree.h: dense = its semi-dense
+  /// map, sparse = its sparse points, salient = its nodes at corners).
   std::string matcher = "sad";
+  /// Support matcher, dense mode: how holes are filled ("none", "linear", "farther"; empty =
+  /// the matcher's default).
+  std::string fill;
   std::string output_json;
   std::string output_image;
   /// Matching window width [px]; 0 = the mode's default (dense 7, salient 11).

@@ -767,6 +767,35 @@ void expectStereoEvalRejected(const std::string& args,
   EXPECT_FALSE(fs::exists(json_path)) << "no JSON may be written";
 }
 
+TEST(TwocamCli, StereoEvalMatcherSupport) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_support");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string mode : {"dense", "salient"}) {
+    SCOPED_TRACE(mode);
+    const std::string json_path = dir + "/" + mode + ".json";
+    const RunResult r = run(stereoEvalArgs(
+        pair, "--max-disp 16 --matcher support --mode " + mode + " -o " + json_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto json = parseFlatJson(readFile(json_path));
+    ASSERT_TRUE(json.has_value()) << readFile(json_path);
+    EXPECT_LE(json->at("bad1"), 5.0);
+    EXPECT_GT(json->at("density"), 50.0);
+  }
+  const RunResult none = run(stereoEvalArgs(
+      pair, "--max-disp 16 --matcher support --mode dense --fill none -o " + dir + "/none.json"));
+  EXPECT_EQ(none.exit_code, 0) << none.output;
+  const std::string json = dir + "/bad.json";
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher census"),
+                           json,
+                           {"--matcher", "sad, support", "census"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher support --fill cubic"),
+      json,
+      {"--fill", "cubic"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode dense --fill none"), json, {"--fill", "support"});
+}
+
 TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
   const std::string dir = test::makeTempDir("cli_stereo_eval_bad");
   const SyntheticPair pair = writeSyntheticPair(dir);
