@@ -28,6 +28,12 @@ struct StereoEvalArgs {
   bool exclude_occluded = false;
   /// Salient mode: Birchfield-Tomasi interval cost instead of SAD (SalientSadOptions).
   bool birchfield_tomasi = false;
+  /// Matcher: "sad" (1-D SAD, dense_sad.h / salient_sad.h) or "ncc" (scaled-window NCC,
+  /// ncc_scaled.h).
+  std::string matcher = "sad";
+  /// --matcher ncc: write the winning window scale of every pixel (dense) or best hypothesis
+  /// (salient) as a picture (PNG).
+  std::string scale_image;
 };
 
 int runStereoEval(const StereoEvalArgs& args);

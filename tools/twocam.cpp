@@ -85,6 +85,12 @@ int main(int argc, char** argv) {
                         "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
   stereo_eval->add_option(
       "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
+  stereo_eval->add_option(
+      "--matcher", se.matcher, "sad (1-D SAD, default) or ncc (scaled-window NCC, Bradley 2008)");
+  stereo_eval->add_option("--scale-image",
+                          se.scale_image,
+                          "--matcher ncc: picture of the winning window scale (red 1/sqrt2, "
+                          "green 1, blue sqrt2) (PNG)");
 
   twocam::tools::RunArgs run;
   int run_frames = 0, run_sample = 0;

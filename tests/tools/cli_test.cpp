@@ -722,8 +722,15 @@ TEST(TwocamCli, StereoEvalSyntheticPairBothModes) {
     ASSERT_TRUE(fs::is_regular_file(json_path));
     const auto json = parseFlatJson(readFile(json_path));
     ASSERT_TRUE(json.has_value()) << readFile(json_path);
-    for (const char* key :
-         {"bad1", "bad2", "avgerr", "density", "recall_at_k", "points", "ms", "s_per_mp"}) {
+    for (const char* key : {"bad1",
+                            "bad2",
+                            "bad0.5",
+                            "avgerr",
+                            "density",
+                            "recall_at_k",
+                            "points",
+                            "ms",
+                            "s_per_mp"}) {
       EXPECT_EQ(json->count(key), 1u) << "missing key " << key;
     }
     const auto value = [&](const char* key) {
@@ -735,6 +742,7 @@ TEST(TwocamCli, StereoEvalSyntheticPairBothModes) {
     EXPECT_GT(value("s_per_mp"), 0.0);
     EXPECT_GE(value("bad2"), 0.0);
     EXPECT_LE(value("bad2"), value("bad1"));
+    EXPECT_GE(value("bad0.5"), value("bad1"));
     if (mode == "dense") {
       EXPECT_EQ(value("points"), kPairWidth * kPairHeight);
       EXPECT_LE(value("bad1"), 2.0);
