@@ -165,52 +165,72 @@ void refineSubpixel(const PrimaryWindow& w,
   *ncc_out = best;
 }
 
-/// The sample pattern of one (scale, sub-pixel step) of the dense sub-pixel search: window
-/// column i reads the right view at x_r + base[i] + frac[i] (x_r = u - d, integer), i.e.
-/// between columns base[i] and base[i] + 1 relative to x_r.
-struct SubpixelPattern {
-  std::array<int, kMaxWindowPx> base{};
-  std::array<float, kMaxWindowPx> frac{};
-  double reach_lo = 0.0;  // leftmost sample position relative to x_r
-  double reach_hi = 0.0;  // rightmost
-  double offset = 0.0;    // -k/steps: the disparity is d + k/steps
-};
-
 /// The dense sub-pixel search (same candidates and rule as refineSubpixel), organised so that
-/// the 2n candidates share the window's products: linear interpolation is linear in R, so with
-/// the column sums P_i(c) = sum_j L(u+i, v+j) R(x_r+c, v+j), C1(c) = sum_j R, C2(c) = sum_j R^2
-/// and C11(c) = sum_j R(c) R(c+1), one candidate costs O(N) instead of O(N^2):
-///   cross = sum_i (1-f_i) P_i(a_i) + f_i P_i(a_i+1),  sum = sum_i (1-f_i) C1(a_i) + f_i C1(a_i+1),
-///   sum_sq = sum_i (1-f_i)^2 C2(a_i) + 2 f_i (1-f_i) C11(a_i) + f_i^2 C2(a_i+1).
+/// the 2n candidates share the window's products. Linear interpolation is linear in R: with the
+/// column sums P_i(c) = sum_j L(u+i, v+j) R(x_r+c, v+j), C1(c) = sum_j R(x_r+c, v+j),
+/// C2(c) = sum_j R^2 and C11(c) = sum_j R(c) R(c+1) over the window's rows, a candidate whose
+/// column i samples x_r + a_i + f_i (x_r = u - d) has
+///   cross  = sum_i (1-f_i) P_i(a_i) + f_i P_i(a_i+1),
+///   sum    = sum_i (1-f_i) C1(a_i) + f_i C1(a_i+1),
+///   sum_sq = sum_i (1-f_i)^2 C2(a_i) + 2 f_i (1-f_i) C11(a_i) + f_i^2 C2(a_i+1),
+/// exactly the sums over the interpolated samples. The a_i, f_i of a candidate depend only on
+/// the scale and the step k, so the weights are tabulated once per scale, stored column-major
+/// (one row of 2n candidate weights per P_i(c) or C(c)), and all candidates' sums come from
+/// three small matrix-vector products whose inner loop runs over the candidates.
 class FastSubpixel {
  public:
   FastSubpixel(float scale, const NccScaledOptions& o) : o_(o), n_(o.window_size_px) {
     const int h = n_ / 2;
     const int steps = o.subpixel_steps;
-    c_lo_ = 0;
-    c_hi_ = 0;
+    struct Sample {
+      int a;
+      float f;
+    };
+    std::vector<std::vector<Sample>> samples;
     for (int k = -steps; k <= steps; ++k) {
       if (k == 0) continue;
-      SubpixelPattern p;
-      p.offset = -static_cast<double>(k) / steps;
+      const double offset = -static_cast<double>(k) / steps;  // disparity d + k/steps
+      std::vector<Sample> row;
       for (int i = -h; i <= h; ++i) {
-        const double x = p.offset + static_cast<double>(scale) * i;
+        const double x = offset + static_cast<double>(scale) * i;
         const int a = static_cast<int>(std::floor(x));
-        p.base[i + h] = a;
-        p.frac[i + h] = static_cast<float>(x - a);
+        row.push_back({a, static_cast<float>(x - a)});
         c_lo_ = std::min(c_lo_, a);
         c_hi_ = std::max(c_hi_, a + 1);
       }
-      p.reach_lo = p.offset - static_cast<double>(scale) * h;
-      p.reach_hi = p.offset + static_cast<double>(scale) * h;
-      patterns_.push_back(p);
+      samples.push_back(row);
       ks_.push_back(k);
+      reach_lo_.push_back(offset - static_cast<double>(scale) * h);
+      reach_hi_.push_back(offset + static_cast<double>(scale) * h);
     }
     cols_ = c_hi_ - c_lo_ + 1;
+    cand_ = static_cast<int>(ks_.size());
+    w_cross_.assign(static_cast<size_t>(n_) * cols_ * cand_, 0.0f);
+    w_sum_.assign(static_cast<size_t>(cols_) * cand_, 0.0f);
+    w_sq_.assign(static_cast<size_t>(cols_) * cand_, 0.0f);
+    w_adj_.assign(static_cast<size_t>(cols_) * cand_, 0.0f);
+    for (int q = 0; q < cand_; ++q) {
+      for (int i = 0; i < n_; ++i) {
+        const int a = samples[q][i].a - c_lo_;
+        const float f = samples[q][i].f;
+        const float g = 1.0f - f;
+        w_cross_[(static_cast<size_t>(i) * cols_ + a) * cand_ + q] += g;
+        w_cross_[(static_cast<size_t>(i) * cols_ + a + 1) * cand_ + q] += f;
+        w_sum_[static_cast<size_t>(a) * cand_ + q] += g;
+        w_sum_[static_cast<size_t>(a + 1) * cand_ + q] += f;
+        w_sq_[static_cast<size_t>(a) * cand_ + q] += g * g;
+        w_sq_[static_cast<size_t>(a + 1) * cand_ + q] += f * f;
+        w_adj_[static_cast<size_t>(a) * cand_ + q] += 2.0f * f * g;
+      }
+    }
     p_.resize(static_cast<size_t>(n_) * cols_);
     c1_.resize(cols_);
     c2_.resize(cols_);
     c11_.resize(cols_);
+    col_.resize(cols_ + 1);
+    cross_.resize(cand_);
+    sum_.resize(cand_);
+    sq_.resize(cand_);
   }
 
   /// Refines (d, ncc_int) of pixel (u, v); w is its loaded left window.
@@ -233,41 +253,53 @@ class FastSubpixel {
     std::fill(c11_.begin(), c11_.end(), 0.0f);
     for (int j = -h; j <= h; ++j) {
       const float* row = right + static_cast<size_t>(v + j) * width;
+      // Columns beyond the image serve only candidates that are skipped below.
+      for (int c = 0; c <= cols_; ++c) col_[c] = row[std::clamp(xr + c_lo_ + c, 0, width - 1)];
       const float* lw = w.values.data() + static_cast<size_t>(j + h) * n_;
       for (int c = 0; c < cols_; ++c) {
-        const float r = row[std::clamp(xr + c_lo_ + c, 0, width - 1)];
-        const float r_next = row[std::clamp(xr + c_lo_ + c + 1, 0, width - 1)];
-        c1_[c] += r;
-        c2_[c] += r * r;
-        c11_[c] += r * r_next;
-        for (int i = 0; i < n_; ++i) p_[static_cast<size_t>(i) * cols_ + c] += lw[i] * r;
+        c1_[c] += col_[c];
+        c2_[c] += col_[c] * col_[c];
+        c11_[c] += col_[c] * col_[c + 1];
+      }
+      for (int i = 0; i < n_; ++i) {
+        float* pi = p_.data() + static_cast<size_t>(i) * cols_;
+        const float li = lw[i];
+        for (int c = 0; c < cols_; ++c) pi[c] += li * col_[c];
+      }
+    }
+    std::fill(cross_.begin(), cross_.end(), 0.0f);
+    std::fill(sum_.begin(), sum_.end(), 0.0f);
+    std::fill(sq_.begin(), sq_.end(), 0.0f);
+    const int rows = n_ * cols_;
+    for (int r = 0; r < rows; ++r) {
+      const float x = p_[r];
+      const float* wr = w_cross_.data() + static_cast<size_t>(r) * cand_;
+      for (int q = 0; q < cand_; ++q) cross_[q] += wr[q] * x;
+    }
+    for (int c = 0; c < cols_; ++c) {
+      const float x1 = c1_[c];
+      const float x2 = c2_[c];
+      const float x11 = c11_[c];
+      const float* ws = w_sum_.data() + static_cast<size_t>(c) * cand_;
+      const float* wq = w_sq_.data() + static_cast<size_t>(c) * cand_;
+      const float* wa = w_adj_.data() + static_cast<size_t>(c) * cand_;
+      for (int q = 0; q < cand_; ++q) {
+        sum_[q] += ws[q] * x1;
+        sq_[q] += wq[q] * x2 + wa[q] * x11;
       }
     }
     float best = ncc_int;
     int best_k = 0;
-    for (size_t q = 0; q < patterns_.size(); ++q) {
-      const SubpixelPattern& pat = patterns_[q];
+    for (int q = 0; q < cand_; ++q) {
       const int k = ks_[q];
-      const double dk = d - pat.offset;
+      const double dk = d + static_cast<double>(k) / o_.subpixel_steps;
       if (dk < o_.min_disparity_px || dk > o_.max_disparity_px) continue;
-      if (xr + pat.reach_lo < -kPositionSlack || xr + pat.reach_hi > width - 1 + kPositionSlack) {
+      if (xr + reach_lo_[q] < -kPositionSlack || xr + reach_hi_[q] > width - 1 + kPositionSlack) {
         continue;
       }
-      float cross = 0.0f;
-      float sum = 0.0f;
-      float sum_sq = 0.0f;
-      for (int i = 0; i < n_; ++i) {
-        const int a = pat.base[i] - c_lo_;
-        const float f = pat.frac[i];
-        const float g = 1.0f - f;
-        const float* pi = p_.data() + static_cast<size_t>(i) * cols_;
-        cross += g * pi[a] + f * pi[a + 1];
-        sum += g * c1_[a] + f * c1_[a + 1];
-        sum_sq += g * g * c2_[a] + 2.0f * f * g * c11_[a] + f * f * c2_[a + 1];
-      }
-      const float inv_ref = inverseDeviation(sum, sum_sq, inv_area, min_var_sum);
+      const float inv_ref = inverseDeviation(sum_[q], sq_[q], inv_area, min_var_sum);
       if (inv_ref == 0.0f) continue;
-      const float c = (cross - w.sum * sum * inv_area) * w.inv_dev * inv_ref;
+      const float c = (cross_[q] - w.sum * sum_[q] * inv_area) * w.inv_dev * inv_ref;
       if (c > best || (c == best && std::abs(k) < std::abs(best_k))) {
         best = c;
         best_k = k;
@@ -283,12 +315,22 @@ class FastSubpixel {
   int c_lo_ = 0;
   int c_hi_ = 0;
   int cols_ = 0;
-  std::vector<SubpixelPattern> patterns_;
+  int cand_ = 0;
   std::vector<int> ks_;
+  std::vector<double> reach_lo_;  // leftmost sample of each candidate relative to x_r
+  std::vector<double> reach_hi_;  // rightmost
+  std::vector<float> w_cross_;
+  std::vector<float> w_sum_;
+  std::vector<float> w_sq_;
+  std::vector<float> w_adj_;
   std::vector<float> p_;
   std::vector<float> c1_;
   std::vector<float> c2_;
   std::vector<float> c11_;
+  std::vector<float> col_;
+  std::vector<float> cross_;
+  std::vector<float> sum_;
+  std::vector<float> sq_;
 };
 
 Status checkPair(const ImageU8& left,
@@ -584,6 +626,7 @@ Status NccScaledMatcher::compute(const ImageU8& left,
   if (o.subpixel_steps > 0) {
     for (int sl = 0; sl < num_scales; ++sl) subpixel.emplace_back(kNccScales[scales[sl]], o);
   }
+  PrimaryWindow w;  // reused: its value array is large enough for the widest window
   ImageF32 out(width, height, kNoDisparity);
   ncc_ = ImageF32(width, height, kNoNcc);
   scale_index_ = ImageU8(width, height, kNoScale);
@@ -599,7 +642,6 @@ Status NccScaledMatcher::compute(const ImageU8& left,
       if (!(ncc >= o.ncc_threshold) || left_inv_[p] == 0.0f) continue;
       float d_px = static_cast<float>(d);
       if (o.subpixel_steps > 0) {
-        PrimaryWindow w;
         loadPrimary(left_f_.data(), width, height, u, v, n, o.min_window_std, &w);
         subpixel[sl].refine(w, right_f, width, u, v, d, ncc, &d_px, &ncc);
         ncc_.data[p] = ncc;
@@ -817,10 +859,11 @@ Status matchNccSalient(const ImageU8& left,
   std::vector<float> curve(num_d);
   std::vector<int> curve_scale(num_d);
   std::vector<int> peaks;
+  PrimaryWindow w;   // reused: the value arrays are large enough for the widest window
+  PrimaryWindow rw;  // the right window of the right-to-left check
   for (const Corner& corner : corners) {
     const int u = corner.u_px;
     const int v = corner.v_px;
-    PrimaryWindow w;
     if (!loadPrimary(lp, width, height, u, v, n, o.min_window_std, &w)) continue;
     SalientPoint point;
     point.corner = corner;
@@ -894,7 +937,6 @@ Status matchNccSalient(const ImageU8& left,
       hyp.rank = static_cast<uint8_t>(rank);
       // Right-to-left: the right window at the integer match, square, against the left row
       // at every scale; consistent when its best lies within lr_tolerance_px.
-      PrimaryWindow rw;
       const int xr = u - c.d_int;
       if (loadPrimary(rp, width, height, xr, v, n, o.min_window_std, &rw) && rw.inv_dev > 0.0f) {
         float back_best = -std::numeric_limits<float>::infinity();
