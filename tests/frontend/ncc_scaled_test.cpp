@@ -149,7 +149,7 @@ TEST(NccScaledOptions, DefaultsAreThePapersAndValid) {
 TEST(NccScaledOptions, ValidateNamesTheBrokenOption) {
   struct Case {
     const char* key;
-    void (*breakIt)(NccScaledOptions*);
+    void (*break_it)(NccScaledOptions*);
   };
   const Case cases[] = {
       {"window_size_px", [](NccScaledOptions* o) { o->window_size_px = 4; }},
@@ -172,7 +172,7 @@ TEST(NccScaledOptions, ValidateNamesTheBrokenOption) {
   };
   for (const Case& c : cases) {
     NccScaledOptions o;
-    c.breakIt(&o);
+    c.break_it(&o);
     const Status s = o.validate();
     ASSERT_FALSE(s.isOk()) << c.key;
     EXPECT_NE(s.message().find(c.key), std::string::npos) << s.message();
