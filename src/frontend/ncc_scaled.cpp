@@ -582,9 +582,10 @@ Status NccScaledMatcher::compute(const ImageU8& left,
         std::fill(c + u_lo, c + u_hi + 1, 0.0f);
         for (int i = 0; i < n; ++i) {
           const float* rrow = frac_images_.data() + (static_cast<size_t>(sl) * n + i) * pixels +
-                              static_cast<size_t>(y) * width - d;
-          const float* l = lrow + (i - h);
-          for (int u = u_lo; u <= u_hi; ++u) c[u] += l[u] * rrow[u];
+                              static_cast<size_t>(y) * width;
+          // Offsets stay inside the rows: u - h + i >= 0 and u - d is a valid centre.
+          const int shift = i - h;
+          for (int u = u_lo; u <= u_hi; ++u) c[u] += lrow[u + shift] * rrow[u - d];
         }
       }
     }
@@ -603,8 +604,7 @@ Status NccScaledMatcher::compute(const ImageU8& left,
         const int u_hi = std::min(width - 1 - h, d + x_hi[sl]);
         if (u_lo > u_hi) continue;
         const int32_t this_code = sl * num_d + dd;
-        const float* rs = rs_row - d;
-        const float* ri = ri_row - d;
+
         const float* rows[kMaxWindowPx];
         for (int k = 0; k < n; ++k) {
           rows[k] = ring_.data() + ((static_cast<size_t>(k) * combos) + sl * num_d + dd) * width;
@@ -612,7 +612,7 @@ Status NccScaledMatcher::compute(const ImageU8& left,
         for (int u = u_lo; u <= u_hi; ++u) {
           float cross = 0.0f;
           for (int k = 0; k < n; ++k) cross += rows[k][u];
-          const float ncc = (cross - ls[u] * rs[u] * inv_area) * li[u] * ri[u];
+          const float ncc = (cross - ls[u] * rs_row[u - d] * inv_area) * li[u] * ri_row[u - d];
           const bool better = ncc > best[u];
           best[u] = better ? ncc : best[u];
           code[u] = better ? this_code : code[u];
