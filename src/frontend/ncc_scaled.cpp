@@ -132,41 +132,8 @@ float nccAgainst(const PrimaryWindow& w,
 }
 
 /// The paper's sub-pixel local search: NCC at d + k/steps, k = +-1..+-steps, inside
-/// [d_min, d_max]; returns the best (the integer d on ties) through d_out and ncc_out.
-template <typename P>
-void refineSubpixel(const PrimaryWindow& w,
-                    const P* ref,
-                    int width,
-                    int height,
-                    int u,
-                    int v,
-                    int d,
-                    float scale,
-                    const NccScaledOptions& o,
-                    float ncc_int,
-                    float* d_out,
-                    float* ncc_out) {
-  float best = ncc_int;
-  int best_k = 0;
-  const int steps = o.subpixel_steps;
-  for (int k = -steps; k <= steps; ++k) {
-    if (k == 0) continue;
-    const double dk = d + static_cast<double>(k) / steps;
-    if (dk < o.min_disparity_px || dk > o.max_disparity_px) continue;
-    const float c =
-        nccAgainst(w, ref, width, height, v, u - dk, scale, o.window_size_px, o.min_window_std);
-    // Strictly greater, and nearer the integer first on ties (|k| grows outwards).
-    if (c > best || (c == best && std::abs(k) < std::abs(best_k))) {
-      best = c;
-      best_k = k;
-    }
-  }
-  *d_out = static_cast<float>(d + static_cast<double>(best_k) / steps);
-  *ncc_out = best;
-}
-
-/// The dense sub-pixel search (same candidates and rule as refineSubpixel), organised so that
-/// the 2n candidates share the window's products. Linear interpolation is linear in R: with the
+/// [d_min, d_max] and the image; the best wins (the integer d on ties). Organised so that the 2n
+/// candidates share the window's products. Linear interpolation is linear in R: with the
 /// column sums P_i(c) = sum_j L(u+i, v+j) R(x_r+c, v+j), C1(c) = sum_j R(x_r+c, v+j),
 /// C2(c) = sum_j R^2 and C11(c) = sum_j R(c) R(c+1) over the window's rows, a candidate whose
 /// column i samples x_r + a_i + f_i (x_r = u - d) has
@@ -234,8 +201,9 @@ class FastSubpixel {
   }
 
   /// Refines (d, ncc_int) of pixel (u, v); w is its loaded left window.
+  template <typename P>
   void refine(const PrimaryWindow& w,
-              const float* right,
+              const P* right,
               int width,
               int u,
               int v,
@@ -252,9 +220,11 @@ class FastSubpixel {
     std::fill(c2_.begin(), c2_.end(), 0.0f);
     std::fill(c11_.begin(), c11_.end(), 0.0f);
     for (int j = -h; j <= h; ++j) {
-      const float* row = right + static_cast<size_t>(v + j) * width;
+      const P* row = right + static_cast<size_t>(v + j) * width;
       // Columns beyond the image serve only candidates that are skipped below.
-      for (int c = 0; c <= cols_; ++c) col_[c] = row[std::clamp(xr + c_lo_ + c, 0, width - 1)];
+      for (int c = 0; c <= cols_; ++c) {
+        col_[c] = centred(row[std::clamp(xr + c_lo_ + c, 0, width - 1)]);
+      }
       const float* lw = w.values.data() + static_cast<size_t>(j + h) * n_;
       for (int c = 0; c < cols_; ++c) {
         c1_[c] += col_[c];
@@ -331,6 +301,102 @@ class FastSubpixel {
   std::vector<float> cross_;
   std::vector<float> sum_;
   std::vector<float> sq_;
+};
+
+/// NCC of one primary window against the reference windows centred on a span of integer columns
+/// of the same rows, at every scale, from per-column sums (the identity FastSubpixel uses): the
+/// salient matcher's search and right-to-left check. Same values as nccAgainst up to float
+/// rounding.
+class RowCorrelator {
+ public:
+  explicit RowCorrelator(int n) : n_(n) {
+    const int h = n / 2;
+    for (int si = 0; si < kNccScaleCount; ++si) {
+      Pattern& p = patterns_[si];
+      for (int i = -h; i <= h; ++i) {
+        const double x = static_cast<double>(kNccScales[si]) * i;
+        const int a = static_cast<int>(std::floor(x));
+        p.a[i + h] = a;
+        p.f[i + h] = static_cast<float>(x - a);
+        a_min_ = std::min(a_min_, a);
+        a_max_ = std::max(a_max_, a + 1);
+      }
+      p.reach = static_cast<double>(kNccScales[si]) * h;
+    }
+  }
+
+  /// Column sums for windows centred on reference columns [x_lo, x_hi] of rows v - h..v + h.
+  template <typename P>
+  void load(const PrimaryWindow& w, const P* ref, int width, int v, int x_lo, int x_hi) {
+    const int h = n_ / 2;
+    c0_ = x_lo + a_min_;
+    cols_ = x_hi + a_max_ - c0_ + 1;
+    p_.assign(static_cast<size_t>(n_) * cols_, 0.0f);
+    c1_.assign(cols_, 0.0f);
+    c2_.assign(cols_, 0.0f);
+    c11_.assign(cols_, 0.0f);
+    col_.resize(cols_ + 1);
+    for (int j = -h; j <= h; ++j) {
+      const P* row = ref + static_cast<size_t>(v + j) * width;
+      // Columns beyond the image serve only windows that ncc() refuses.
+      for (int c = 0; c <= cols_; ++c) col_[c] = centred(row[std::clamp(c0_ + c, 0, width - 1)]);
+      for (int c = 0; c < cols_; ++c) {
+        c1_[c] += col_[c];
+        c2_[c] += col_[c] * col_[c];
+        c11_[c] += col_[c] * col_[c + 1];
+      }
+      const float* lw = w.values.data() + static_cast<size_t>(j + h) * n_;
+      for (int i = 0; i < n_; ++i) {
+        float* pi = p_.data() + static_cast<size_t>(i) * cols_;
+        const float li = lw[i];
+        for (int c = 0; c < cols_; ++c) pi[c] += li * col_[c];
+      }
+    }
+  }
+
+  /// NCC of the loaded window against the reference window centred at column x (in the loaded
+  /// span) at scale index si; NaN when a sample leaves the image or a window is flat.
+  [[nodiscard]] float ncc(const PrimaryWindow& w, int si, int x, int width, float min_std) const {
+    const Pattern& p = patterns_[si];
+    if (x - p.reach < -kPositionSlack || x + p.reach > width - 1 + kPositionSlack ||
+        w.inv_dev == 0.0f) {
+      return std::numeric_limits<float>::quiet_NaN();
+    }
+    float cross = 0.0f;
+    float sum = 0.0f;
+    float sum_sq = 0.0f;
+    for (int i = 0; i < n_; ++i) {
+      const int c = x + p.a[i] - c0_;
+      const float f = p.f[i];
+      const float g = 1.0f - f;
+      const float* pi = p_.data() + static_cast<size_t>(i) * cols_;
+      cross += g * pi[c] + f * pi[c + 1];
+      sum += g * c1_[c] + f * c1_[c + 1];
+      sum_sq += g * g * c2_[c] + 2.0f * f * g * c11_[c] + f * f * c2_[c + 1];
+    }
+    const float inv_area = 1.0f / static_cast<float>(n_ * n_);
+    const float inv_ref = inverseDeviation(sum, sum_sq, inv_area, minVarianceSum(min_std, n_ * n_));
+    if (inv_ref == 0.0f) return std::numeric_limits<float>::quiet_NaN();
+    return (cross - w.sum * sum * inv_area) * w.inv_dev * inv_ref;
+  }
+
+ private:
+  struct Pattern {
+    std::array<int, kMaxWindowPx> a{};
+    std::array<float, kMaxWindowPx> f{};
+    double reach = 0.0;
+  };
+  int n_;
+  int a_min_ = 0;
+  int a_max_ = 0;
+  int c0_ = 0;
+  int cols_ = 0;
+  std::array<Pattern, kNccScaleCount> patterns_{};
+  std::vector<float> p_;
+  std::vector<float> c1_;
+  std::vector<float> c2_;
+  std::vector<float> c11_;
+  std::vector<float> col_;
 };
 
 Status checkPair(const ImageU8& left,
@@ -861,6 +927,12 @@ Status matchNccSalient(const ImageU8& left,
   std::vector<int> peaks;
   PrimaryWindow w;   // reused: the value arrays are large enough for the widest window
   PrimaryWindow rw;  // the right window of the right-to-left check
+  RowCorrelator forward(n);
+  RowCorrelator backward(n);
+  std::vector<FastSubpixel> subpixel;  // per scale index
+  if (o.subpixel_steps > 0) {
+    for (int si = 0; si < kNccScaleCount; ++si) subpixel.emplace_back(kNccScales[si], o);
+  }
   for (const Corner& corner : corners) {
     const int u = corner.u_px;
     const int v = corner.v_px;
@@ -871,20 +943,13 @@ Status matchNccSalient(const ImageU8& left,
     const auto point_index = static_cast<uint32_t>(out->points.size());
     bool range_cut = false;
     float best = -std::numeric_limits<float>::infinity();
+    forward.load(w, rp, width, v, u - o.max_disparity_px, u - d_min);
     for (int dd = 0; dd < num_d; ++dd) {
       const int d = d_min + dd;
       curve[dd] = -std::numeric_limits<float>::infinity();
       curve_scale[dd] = 1;
       for (const int si : scales) {
-        const float c = nccAgainst(w,
-                                   rp,
-                                   width,
-                                   height,
-                                   v,
-                                   static_cast<double>(u - d),
-                                   kNccScales[si],
-                                   n,
-                                   o.min_window_std);
+        const float c = forward.ncc(w, si, u - d, width, o.min_window_std);
         const double reach = static_cast<double>(kNccScales[si]) * h;
         if (u - d - reach < 0.0 || u - d + reach > width - 1.0) range_cut = true;
         if (std::isnan(c)) continue;
@@ -919,8 +984,7 @@ Status matchNccSalient(const ImageU8& left,
     for (const int dd : peaks) {
       Candidate c{static_cast<float>(d_min + dd), curve[dd], d_min + dd, curve_scale[dd]};
       if (o.subpixel_steps > 0) {
-        refineSubpixel(
-            w, rp, width, height, u, v, c.d_int, kNccScales[c.scale], o, c.ncc, &c.d_px, &c.ncc);
+        subpixel[c.scale].refine(w, rp, width, u, v, c.d_int, c.ncc, &c.d_px, &c.ncc);
       }
       found.push_back(c);
     }
@@ -941,18 +1005,11 @@ Status matchNccSalient(const ImageU8& left,
       if (loadPrimary(rp, width, height, xr, v, n, o.min_window_std, &rw) && rw.inv_dev > 0.0f) {
         float back_best = -std::numeric_limits<float>::infinity();
         int back_d = -1;
+        backward.load(rw, lp, width, v, xr + d_min, xr + o.max_disparity_px);
         for (int dd = 0; dd < num_d; ++dd) {
           const int d = d_min + dd;
           for (const int si : scales) {
-            const float b = nccAgainst(rw,
-                                       lp,
-                                       width,
-                                       height,
-                                       v,
-                                       static_cast<double>(xr + d),
-                                       kNccScales[si],
-                                       n,
-                                       o.min_window_std);
+            const float b = backward.ncc(rw, si, xr + d, width, o.min_window_std);
             if (b > back_best) {
               back_best = b;
               back_d = d;
