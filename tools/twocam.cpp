@@ -89,11 +89,15 @@ int main(int argc, char** argv) {
                         "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
   stereo_eval->add_option("--matcher",
                           se.matcher,
-                          "sad (1-D SAD, default), support (support value) or maxtree (1-D "
-                          "Max-Trees; --mode dense = semi-dense, sparse = node end points, "
-                          "salient = nodes at corners)");
+                          "sad (1-D SAD, default), support (support value), ncc (scaled-window "
+                          "NCC, Bradley 2008) or maxtree (1-D Max-Trees; --mode dense = "
+                          "semi-dense, sparse = node end points, salient = nodes at corners)");
   stereo_eval->add_option(
       "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
+  stereo_eval->add_option("--scale-image",
+                          se.scale_image,
+                          "--matcher ncc: picture of the winning window scale (red 1/sqrt2, "
+                          "green 1, blue sqrt2) (PNG)");
 
   twocam::tools::RunArgs run;
   int run_frames = 0, run_sample = 0;
