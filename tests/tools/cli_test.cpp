@@ -879,8 +879,9 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
                            json,
                            {"--birchfield-tomasi", "salient"});
 
-  expectStereoEvalRejected(
-      stereoEvalArgs(pair, ok_flags + " --matcher zncc"), json, {"--matcher", "sad, ncc", "zncc"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher zncc"),
+                           json,
+                           {"--matcher", "sad, support, ncc, maxtree", "zncc"});
   expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher ncc --post none"),
                            json,
                            {"--post", "--matcher sad"});
