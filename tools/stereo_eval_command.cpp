@@ -4,7 +4,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "eval/disparity_io.h"
 #include "eval/stereo_metrics.h"
@@ -12,7 +14,11 @@
 #include "frontend/cv_interop.h"
 #include "frontend/dense_sad.h"
 #include "frontend/harris.h"
+#include "frontend/maxtree.h"
+#include "frontend/ncc_scaled.h"
 #include "frontend/salient_sad.h"
+#include "frontend/support_value.h"
+#include "io/json.h"
 
 namespace twocam::tools {
 namespace fs = std::filesystem;
@@ -39,11 +45,189 @@ double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// `--matcher maxtree`: semi-dense (dense), sparse or salient output of frontend/maxtree.h, timed
+/// on a second run like the SAD branches.
+Status evalMaxTree(const StereoEvalArgs& args,
+                   const ImageU8& left,
+                   const ImageU8& right,
+                   const eval::DisparityGroundTruth& gt,
+                   const ImageU8* mask,
+                   const eval::StereoEvalOptions& eval_options,
+                   eval::StereoMetrics* metrics,
+                   cv::Mat* picture) {
+  frontend::MaxTreeOptions options;
+  options.max_disparity_px = args.max_disp;
+  if (Status s = options.validate(); !s) return s;
+  frontend::MaxTreeMatcher matcher;
+  frontend::MaxTreeResult result;
+  if (Status s = matcher.compute(left, right, options, &result); !s) return s;  // warm-up
+  if (args.mode == "salient") {
+    frontend::HarrisOptions harris;
+    harris.target_count = std::max(
+        1,
+        static_cast<int>(
+            args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
+    harris.max_corners = 2 * harris.target_count;
+    if (Status s = harris.validate(); !s) return s;
+    frontend::HarrisDetector detector(harris);
+    std::vector<Corner> corners;
+    for (int pass = 0; pass < 4; ++pass) {  // settle the adaptive threshold, as for SAD
+      if (Status s = detector.detect(left, &corners); !s) return s;
+    }
+    StereoHypotheses hyps;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = detector.detect(left, &corners); !s) return s;
+    if (Status s = frontend::matchMaxTreeSalient(left, right, corners, options, &hyps); !s)
+      return s;
+    const double ms = msSince(t0);
+    if (Status s = eval::evaluateSalient(hyps, gt, mask, eval_options, metrics); !s) return s;
+    eval::setTiming(ms, left.width, left.height, metrics);
+    if (!args.output_image.empty()) {
+      return eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, picture);
+    }
+    return Status::ok();
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status s = matcher.compute(left, right, options, &result); !s) return s;
+  const double ms = msSince(t0);
+  const ImageF32& map = args.mode == "sparse" ? result.sparse : result.semi_dense;
+  if (Status s = eval::evaluateDense(map, gt, mask, eval_options, metrics); !s) return s;
+  eval::setTiming(ms, left.width, left.height, metrics);
+  if (!args.output_image.empty()) {
+    return eval::renderDenseEvalPicture(left, map, gt, args.max_disp, eval_options, picture);
+  }
+  return Status::ok();
+}
+
+/// --matcher ncc: what the scaled-window NCC adds to the metrics (winning scale per item).
+struct NccScaleReport {
+  /// Items (final dense estimates, or salient points with a best hypothesis) per scale index.
+  int64_t counts[frontend::kNccScaleCount] = {0, 0, 0};
+  cv::Mat picture;  // BGR: red 1/sqrt(2), green 1, blue sqrt(2); grey where none
+};
+
+cv::Vec3b scaleColour(int index) {
+  static const cv::Vec3b kColours[frontend::kNccScaleCount] = {
+      cv::Vec3b(40, 40, 230), cv::Vec3b(40, 200, 40), cv::Vec3b(230, 80, 40)};
+  return kColours[index];
+}
+
+cv::Mat dimmedGrey(const ImageU8& left) {
+  cv::Mat grey = frontend::asMat(left).clone();
+  grey = grey / 3;
+  cv::Mat bgr;
+  cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+  return bgr;
+}
+
+/// Dense or salient scaled-window NCC (frontend/ncc_scaled.h) at the paper's defaults, timed and
+/// evaluated like the SAD branches below.
+Status runNcc(const StereoEvalArgs& args,
+              const ImageU8& left,
+              const ImageU8& right,
+              const eval::DisparityGroundTruth& gt,
+              const ImageU8* mask,
+              const eval::StereoEvalOptions& eval_options,
+              eval::StereoMetrics* metrics,
+              cv::Mat* picture,
+              NccScaleReport* report) {
+  frontend::NccScaledOptions options;
+  options.max_disparity_px = args.max_disp;
+  if (args.window_px > 0) options.window_size_px = args.window_px;
+  if (Status s = options.validate(); !s) return s;
+  const bool want_picture = !args.output_image.empty();
+  report->picture = dimmedGrey(left);
+  if (args.mode == "dense") {
+    frontend::NccScaledMatcher matcher;
+    ImageF32 disparity;
+    if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;  // warm-up
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;
+    const double ms = msSince(t0);
+    if (Status s = eval::evaluateDense(disparity, gt, mask, eval_options, metrics); !s) return s;
+    eval::setTiming(ms, left.width, left.height, metrics);
+    for (int v = 0; v < left.height; ++v) {
+      for (int u = 0; u < left.width; ++u) {
+        const uint8_t index = matcher.scaleIndex()(u, v);
+        if (index >= frontend::kNccScaleCount) continue;
+        ++report->counts[index];
+        report->picture.at<cv::Vec3b>(v, u) = scaleColour(index);
+      }
+    }
+    if (want_picture) {
+      return eval::renderDenseEvalPicture(
+          left, disparity, gt, args.max_disp, eval_options, picture);
+    }
+    return Status::ok();
+  }
+  frontend::HarrisOptions harris;
+  harris.target_count = std::max(
+      1,
+      static_cast<int>(args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height +
+                       0.5));
+  harris.max_corners = 2 * harris.target_count;
+  if (Status s = harris.validate(); !s) return s;
+  frontend::HarrisDetector detector(harris);
+  std::vector<Corner> corners;
+  StereoHypotheses hyps;
+  std::vector<uint8_t> scales;
+  constexpr int kSettlingPasses = 4;  // as the SAD branch: let the corner count settle
+  for (int pass = 0; pass < kSettlingPasses; ++pass) {
+    if (Status s = detector.detect(left, &corners); !s) return s;
+  }
+  if (Status s = frontend::matchNccSalient(left, right, corners, options, &hyps, &scales); !s)
+    return s;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status s = detector.detect(left, &corners); !s) return s;
+  if (Status s = frontend::matchNccSalient(left, right, corners, options, &hyps, &scales); !s)
+    return s;
+  const double ms = msSince(t0);
+  if (Status s = eval::evaluateSalient(hyps, gt, mask, eval_options, metrics); !s) return s;
+  eval::setTiming(ms, left.width, left.height, metrics);
+  for (const SalientPoint& p : hyps.points) {
+    if (p.num_hypotheses == 0) continue;
+    const uint8_t index = scales[p.first_hypothesis];  // rank 0 comes first
+    ++report->counts[index];
+    cv::circle(report->picture,
+               cv::Point(p.corner.u_px, p.corner.v_px),
+               2,
+               cv::Scalar(scaleColour(index)),
+               cv::FILLED);
+  }
+  if (want_picture) {
+    return eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, picture);
+  }
+  return Status::ok();
+}
+
+Status writeText(const std::string& path, const std::string& text) {
+  std::ofstream f(path, std::ios::trunc);
+  if (!f) return Status::error(path + ": cannot open for writing");
+  f << text << '\n';
+  f.flush();
+  if (!f) return Status::error(path + ": write failed");
+  return Status::ok();
+}
+
 }  // namespace
 
 int runStereoEval(const StereoEvalArgs& args) {
-  if (args.mode != "dense" && args.mode != "salient")
-    return fail("--mode must be dense or salient, got '" + args.mode + "'");
+  if (args.matcher != "sad" && args.matcher != "support" && args.matcher != "ncc" &&
+      args.matcher != "maxtree")
+    return fail("--matcher must be one of: sad, support, ncc, maxtree; got '" + args.matcher + "'");
+  const bool ncc = args.matcher == "ncc";
+  if (args.matcher == "maxtree" && args.window_px > 0)
+    return fail("--window applies to --matcher sad, support and ncc only");
+  if (args.matcher != "support" && !args.fill.empty())
+    return fail("--fill applies to --matcher support only");
+  if (args.matcher != "sad" && (args.birchfield_tomasi || !args.post.empty()))
+    return fail("--birchfield-tomasi and --post apply to --matcher sad only");
+  if (!ncc && !args.scale_image.empty()) return fail("--scale-image applies to --matcher ncc only");
+  if (Status s = checkWritable(args.scale_image); !s) return fail(s.message());
+  if (args.mode == "sparse" && args.matcher != "maxtree")
+    return fail("--mode sparse needs --matcher maxtree (the others have dense and salient modes)");
+  if (args.mode != "dense" && args.mode != "salient" && args.mode != "sparse")
+    return fail("--mode must be dense, salient or sparse (maxtree), got '" + args.mode + "'");
   if (!(args.gt_scale > 0.0)) return fail("--gt-scale must be > 0");
   if (args.birchfield_tomasi && args.mode != "salient") {
     return fail(
@@ -52,18 +236,20 @@ int runStereoEval(const StereoEvalArgs& args) {
   if (args.border_px < 0) return fail("--border must be >= 0");
   if (Status s = checkWritable(args.output_json); !s) return fail(s.message());
   if (Status s = checkWritable(args.output_image); !s) return fail(s.message());
-  if (!args.output_image.empty()) {
+  for (const std::string* picture_path : {&args.output_image, &args.scale_image}) {
+    if (picture_path->empty()) continue;
     // OpenCV picks the format from the extension and throws a multi-line exception for one it
     // does not know; ask it first, before any work is done.
     bool known = false;
     try {
-      known = cv::haveImageWriter(args.output_image);
+      known = cv::haveImageWriter(*picture_path);
     } catch (const cv::Exception&) {
       known = false;
     }
     if (!known) {
-      return fail("--image " + args.output_image + ": unknown picture format '" +
-                  fs::path(args.output_image).extension().string() + "' (use .png)");
+      return fail(std::string(picture_path == &args.output_image ? "--image " : "--scale-image ") +
+                  *picture_path + ": unknown picture format '" +
+                  fs::path(*picture_path).extension().string() + "' (use .png)");
     }
   }
 
@@ -113,7 +299,60 @@ int runStereoEval(const StereoEvalArgs& args) {
 
   eval::StereoMetrics metrics;
   cv::Mat picture;
-  if (args.mode == "dense") {
+  // A dense map and its time: metrics, timing and (when asked) the picture.
+  auto score_dense = [&](const ImageF32& disparity, double ms) -> Status {
+    if (Status s = eval::evaluateDense(
+            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
+        !s) {
+      return s;
+    }
+    eval::setTiming(ms, left.width, left.height, &metrics);
+    if (args.output_image.empty()) return Status::ok();
+    return eval::renderDenseEvalPicture(left, disparity, gt, args.max_disp, eval_options, &picture);
+  };
+  NccScaleReport ncc_report;
+  if (args.matcher == "maxtree") {
+    if (Status s = evalMaxTree(args,
+                               left,
+                               right,
+                               gt,
+                               mask.empty() ? nullptr : &mask,
+                               eval_options,
+                               &metrics,
+                               &picture);
+        !s) {
+      return fail(s.message());
+    }
+  } else if (args.mode == "dense" && args.matcher == "support") {
+    frontend::SupportValueOptions options;
+    options.max_disparity_px = args.max_disp;
+    if (args.window_px > 0) options.window_px = args.window_px;
+    if (!args.fill.empty()) {
+      if (Status s = frontend::parseSupportFill(args.fill, &options.fill); !s)
+        return fail("--fill: " + s.message());
+    }
+    if (Status s = options.validate(); !s) return fail(s.message());
+    frontend::SupportValueMatcher matcher;
+    ImageF32 disparity;
+    if (Status s = matcher.compute(left, right, options, &disparity); !s)
+      return fail(s.message());  // warm-up
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
+    if (Status s = score_dense(disparity, msSince(t0)); !s) return fail(s.message());
+  } else if (ncc) {
+    if (Status s = runNcc(args,
+                          left,
+                          right,
+                          gt,
+                          mask.empty() ? nullptr : &mask,
+                          eval_options,
+                          &metrics,
+                          &picture,
+                          &ncc_report);
+        !s) {
+      return fail(s.message());
+    }
+  } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
     if (args.window_px > 0) options.window_width_px = args.window_px;
@@ -128,20 +367,7 @@ int runStereoEval(const StereoEvalArgs& args) {
       return fail(s.message());  // warm-up
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return fail(s.message());
-    const double ms = msSince(t0);
-    if (Status s = eval::evaluateDense(
-            disparity, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
-        !s) {
-      return fail(s.message());
-    }
-    eval::setTiming(ms, left.width, left.height, &metrics);
-    if (!args.output_image.empty()) {
-      if (Status s = eval::renderDenseEvalPicture(
-              left, disparity, gt, args.max_disp, eval_options, &picture);
-          !s) {
-        return fail(s.message());
-      }
-    }
+    if (Status s = score_dense(disparity, msSince(t0)); !s) return fail(s.message());
   } else {
     frontend::HarrisOptions harris;
     harris.target_count = std::max(
@@ -166,12 +392,21 @@ int runStereoEval(const StereoEvalArgs& args) {
     for (int pass = 0; pass < kSettlingPasses; ++pass) {
       if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
     }
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
-      return fail(s.message());
+    frontend::SupportValueOptions support;
+    support.max_disparity_px = args.max_disp;
+    if (args.window_px > 0) support.window_px = args.window_px;
+    if (args.matcher == "support") {
+      if (Status s = support.validate(); !s) return fail(s.message());
+    }
+    auto match = [&]() {
+      return args.matcher == "support"
+                 ? frontend::matchSupportValueSalient(left, right, corners, support, &hyps)
+                 : frontend::matchSalient(left, right, corners, sad, &hyps);
+    };
+    if (Status s = match(); !s) return fail(s.message());
     const auto t0 = std::chrono::steady_clock::now();
     if (Status s = detector.detect(left, &corners); !s) return fail(s.message());
-    if (Status s = frontend::matchSalient(left, right, corners, sad, &hyps); !s)
-      return fail(s.message());
+    if (Status s = match(); !s) return fail(s.message());
     const double ms = msSince(t0);
     if (Status s =
             eval::evaluateSalient(hyps, gt, mask.empty() ? nullptr : &mask, eval_options, &metrics);
@@ -187,10 +422,32 @@ int runStereoEval(const StereoEvalArgs& args) {
       }
     }
   }
-  const std::string json = eval::toJson(metrics);
+  std::string json = eval::toJson(metrics);
+  if (ncc) {
+    // The share of each window scale among the estimates [percent], after METRICS.md's keys.
+    io::Json value = eval::toJsonValue(metrics);
+    const int64_t total = ncc_report.counts[0] + ncc_report.counts[1] + ncc_report.counts[2];
+    const char* keys[frontend::kNccScaleCount] = {
+        "scale_share_0.707", "scale_share_1", "scale_share_1.414"};
+    for (int i = 0; i < frontend::kNccScaleCount; ++i) {
+      value[keys[i]] = io::numberOrNull(
+          total > 0 ? 100.0 * static_cast<double>(ncc_report.counts[i]) / static_cast<double>(total)
+                    : std::numeric_limits<double>::quiet_NaN());
+    }
+    json = io::toJsonText(value, io::kMetricsJsonDigits);
+    while (!json.empty() && json.back() == '\n') json.pop_back();
+  }
   std::cout << json << std::endl;
   if (!args.output_json.empty()) {
-    if (Status s = eval::writeJson(args.output_json, metrics); !s) return fail(s.message());
+    if (Status s = writeText(args.output_json, json); !s) return fail(s.message());
+  }
+  if (!args.scale_image.empty()) {
+    try {
+      if (!cv::imwrite(args.scale_image, ncc_report.picture))
+        return fail(args.scale_image + ": cannot write the picture");
+    } catch (const cv::Exception& e) {
+      return fail(args.scale_image + ": cannot write the picture (" + e.err + ")");
+    }
   }
   if (!args.output_image.empty()) {
     try {

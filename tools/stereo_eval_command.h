@@ -14,7 +14,15 @@ struct StereoEvalArgs {
   std::string mask_path;
   int border_px = 0;
   int max_disp = 0;
-  std::string mode;  // dense | salient
+  std::string mode;  // dense | salient | sparse (maxtree only)
+  /// Matcher: "sad" (1-D SAD, the default: dense_sad.h / salient_sad.h), "support" (support
+  /// value, support_value.h), "ncc" (scaled-window NCC, ncc_scaled.h) or "maxtree" (1-D Max-Trees,
+  /// maxtree.h: dense = its semi-dense map, sparse = its sparse points, salient = its nodes at
+  /// corners).
+  std::string matcher = "sad";
+  /// Support matcher, dense mode: how holes are filled ("none", "linear", "farther"; empty =
+  /// the matcher's default).
+  std::string fill;
   std::string output_json;
   std::string output_image;
   /// Matching window width [px]; 0 = the mode's default (dense 7, salient 11).
@@ -28,6 +36,9 @@ struct StereoEvalArgs {
   bool exclude_occluded = false;
   /// Salient mode: Birchfield-Tomasi interval cost instead of SAD (SalientSadOptions).
   bool birchfield_tomasi = false;
+  /// --matcher ncc: write the winning window scale of every pixel (dense) or best hypothesis
+  /// (salient) as a picture (PNG).
+  std::string scale_image;
 };
 
 int runStereoEval(const StereoEvalArgs& args);

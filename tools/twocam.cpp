@@ -68,14 +68,18 @@ int main(int argc, char** argv) {
   stereo_eval
       ->add_option("--mode",
                    se.mode,
-                   "dense (every pixel, with post-processing) or salient (Harris corners, several "
-                   "hypotheses)")
+                   "dense (every pixel, with post-processing), salient (Harris corners, several "
+                   "hypotheses) or sparse (--matcher maxtree: its node end points)")
       ->required();
+  stereo_eval->add_option(
+      "--fill",
+      se.fill,
+      "--matcher support, dense: hole filling none|linear|farther (default farther)");
   stereo_eval->add_option("-o,--output", se.output_json, "Write the metrics as JSON");
   stereo_eval->add_option(
       "--image", se.output_image, "Write a picture of disparities and errors (PNG)");
   stereo_eval->add_option(
-      "--window", se.window_px, "Window width [px] (default: dense 7, salient 11)");
+      "--window", se.window_px, "Window width [px] (default: dense 7, salient 11; support 13x13)");
   stereo_eval->add_flag("--exclude-occluded",
                         se.exclude_occluded,
                         "Evaluate only pixels the right camera sees (occlusion derived from the "
@@ -83,8 +87,17 @@ int main(int argc, char** argv) {
   stereo_eval->add_flag("--birchfield-tomasi",
                         se.birchfield_tomasi,
                         "Salient mode: Birchfield-Tomasi sampling-insensitive cost instead of SAD");
+  stereo_eval->add_option("--matcher",
+                          se.matcher,
+                          "sad (1-D SAD, default), support (support value), ncc (scaled-window "
+                          "NCC, Bradley 2008) or maxtree (1-D Max-Trees; --mode dense = "
+                          "semi-dense, sparse = node end points, salient = nodes at corners)");
   stereo_eval->add_option(
       "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
+  stereo_eval->add_option("--scale-image",
+                          se.scale_image,
+                          "--matcher ncc: picture of the winning window scale (red 1/sqrt2, "
+                          "green 1, blue sqrt2) (PNG)");
 
   twocam::tools::RunArgs run;
   int run_frames = 0, run_sample = 0;

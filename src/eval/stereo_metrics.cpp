@@ -55,6 +55,7 @@ struct ErrorTally {
   int64_t estimated = 0;
   int64_t bad1 = 0;
   int64_t bad2 = 0;
+  int64_t bad05 = 0;
   double abs_err_sum = 0.0;
 
   void addEstimate(double abs_err, const StereoEvalOptions& o) {
@@ -62,6 +63,7 @@ struct ErrorTally {
     abs_err_sum += abs_err;
     bad1 += abs_err > o.bad1_px ? 1 : 0;
     bad2 += abs_err > o.bad2_px ? 1 : 0;
+    bad05 += abs_err > o.bad05_px ? 1 : 0;
   }
 
   void fill(StereoMetrics* m) const {
@@ -69,6 +71,7 @@ struct ErrorTally {
     m->estimated = estimated;
     m->bad1 = percent(bad1, evaluated);
     m->bad2 = percent(bad2, evaluated);
+    m->bad05 = percent(bad05, evaluated);
     m->density = percent(estimated, evaluated);
     m->avgerr = estimated > 0 ? abs_err_sum / static_cast<double>(estimated) : kNaN;
   }
@@ -84,6 +87,9 @@ Status StereoEvalOptions::validate() const {
   }
   if (!std::isfinite(bad2_px) || bad2_px < 0.0) {
     return Status::error("bad2_px = " + std::to_string(bad2_px) + "; must be finite and >= 0");
+  }
+  if (!std::isfinite(bad05_px) || bad05_px < 0.0) {
+    return Status::error("bad05_px = " + std::to_string(bad05_px) + "; must be finite and >= 0");
   }
   if (k < 1) return Status::error("k = " + std::to_string(k) + "; must be >= 1");
   if (!std::isfinite(recall_tol_px) || recall_tol_px < 0.0) {
@@ -235,6 +241,7 @@ Status tallySalient(const StereoHypotheses& hyps,
   sum.estimated += tally.estimated;
   sum.bad1 += tally.bad1;
   sum.bad2 += tally.bad2;
+  sum.bad05 += tally.bad05;
   sum.abs_err_sum += tally.abs_err_sum;
   sum.recalled_k += recalled_k;
   sum.recalled_1 += recalled_1;
@@ -251,6 +258,7 @@ StereoMetrics SalientTally::metrics() const {
   tally.estimated = estimated;
   tally.bad1 = bad1;
   tally.bad2 = bad2;
+  tally.bad05 = bad05;
   tally.abs_err_sum = abs_err_sum;
   StereoMetrics m;
   tally.fill(&m);
@@ -286,6 +294,7 @@ io::Json toJsonValue(const StereoMetrics& m) {
   using io::numberOrNull;
   return {{"bad1", numberOrNull(m.bad1)},
           {"bad2", numberOrNull(m.bad2)},
+          {"bad0.5", numberOrNull(m.bad05)},
           {"avgerr", numberOrNull(m.avgerr)},
           {"density", numberOrNull(m.density)},
           {"recall_at_k", numberOrNull(m.recall_at_k)},

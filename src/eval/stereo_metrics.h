@@ -13,6 +13,7 @@
 ///            recall_tol_px (an unambiguous answer; the rule of frontend confidentBest()).
 /// Then (all percentages are PERCENT, 0..100, as METRICS.md reports them):
 ///   bad1 / bad2 = 100 * #{estimated, |d - d_gt| > bad1_px / bad2_px} / #evaluated
+///   bad0.5      = the same with bad05_px (0.5 px): sub-pixel accuracy
 ///   avgerr      = mean |d - d_gt| over estimated items [px]
 ///   density     = 100 * #estimated / #evaluated
 /// Note the denominator of bad1/bad2 is every evaluated item, so a sparse method is not
@@ -40,6 +41,8 @@ struct StereoEvalOptions {
   double bad1_px = 1.0;
   /// Error above which an estimate counts in bad2 [px]; 2 as METRICS.md defines bad2.
   double bad2_px = 2.0;
+  /// Error above which an estimate counts in bad0.5 [px]; 0.5 as METRICS.md defines bad0.5.
+  double bad05_px = 0.5;
   /// Number of best-ranked hypotheses recall_at_k looks at (salient mode). 4: the salient
   /// matcher keeps a handful of rivals per point; on the repetitive world the true one is
   /// often not the best but among the first few.
@@ -57,6 +60,8 @@ struct StereoMetrics {
   /// Percent of evaluated items with an estimate off by more than bad1_px / bad2_px.
   double bad1 = 0.0;
   double bad2 = 0.0;
+  /// Percent of evaluated items with an estimate off by more than bad05_px (JSON key "bad0.5").
+  double bad05 = 0.0;
   /// Mean absolute disparity error over evaluated items with an estimate [px].
   double avgerr = 0.0;
   /// Percent of evaluated items with an estimate.
@@ -125,6 +130,7 @@ struct SalientTally {
   int64_t estimated = 0;   ///< evaluated points with a single-best estimate
   int64_t bad1 = 0;        ///< estimated points off by more than bad1_px
   int64_t bad2 = 0;        ///< estimated points off by more than bad2_px
+  int64_t bad05 = 0;       ///< estimated points off by more than bad05_px
   int64_t recalled_k = 0;  ///< evaluated points with a true hypothesis among rank < k
   int64_t recalled_1 = 0;  ///< evaluated points whose best hypothesis is true
   int64_t hypotheses = 0;  ///< hypotheses of the evaluated points
@@ -150,7 +156,7 @@ Status tallySalient(const StereoHypotheses& hyps,
 void setTiming(double ms, int width_px, int height_px, StereoMetrics* metrics);
 
 /// The metrics as a JSON object (io/json.h) with METRICS.md's keys first, in this fixed order:
-/// bad1, bad2, avgerr, density, recall_at_k, points, ms, s_per_mp, then k, recall_at_1,
+/// bad1, bad2, bad0.5, avgerr, density, recall_at_k, points, ms, s_per_mp, then k, recall_at_1,
 /// mean_hypotheses, evaluated, estimated, one_answer_fraction, one_answer_precision; NaN and
 /// infinities are null.
 io::Json toJsonValue(const StereoMetrics& metrics);

@@ -65,8 +65,9 @@ TEST(EvaluateDense, HandBuiltMapGivesHandComputedMetrics) {
   EXPECT_EQ(m.points, 12);
   EXPECT_EQ(m.evaluated, 11);
   EXPECT_EQ(m.estimated, 9);
-  EXPECT_NEAR(m.bad1, 100.0 * 4 / 11, kPercentTol);  // 1.5 3 2.5 5 (1.0 is not > 1)
-  EXPECT_NEAR(m.bad2, 100.0 * 3 / 11, kPercentTol);  // 3 2.5 5
+  EXPECT_NEAR(m.bad1, 100.0 * 4 / 11, kPercentTol);   // 1.5 3 2.5 5 (1.0 is not > 1)
+  EXPECT_NEAR(m.bad2, 100.0 * 3 / 11, kPercentTol);   // 3 2.5 5
+  EXPECT_NEAR(m.bad05, 100.0 * 5 / 11, kPercentTol);  // 1.5 3 1.0 2.5 5 (.5 is not > .5)
   EXPECT_NEAR(m.avgerr, 13.75 / 9, kErrorTol);
   EXPECT_NEAR(m.density, 100.0 * 9 / 11, kPercentTol);
   EXPECT_EQ(m.k, 1);
@@ -82,11 +83,13 @@ TEST(EvaluateDense, ThresholdsComeFromOptions) {
   StereoEvalOptions o;
   o.bad1_px = 0.4;   // adds .5 (and keeps 1.0)
   o.bad2_px = 2.75;  // drops 2.5
+  o.bad05_px = 0.2;  // adds .5 and .25
   o.recall_tol_px = 0.3;
   StereoMetrics m;
   ASSERT_TRUE(evaluateDense(c.disparity, c.gt, nullptr, o, &m).isOk());
   EXPECT_NEAR(m.bad1, 100.0 * 6 / 11, kPercentTol);
   EXPECT_NEAR(m.bad2, 100.0 * 2 / 11, kPercentTol);
+  EXPECT_NEAR(m.bad05, 100.0 * 7 / 11, kPercentTol);
   EXPECT_NEAR(m.recall_at_k, 100.0 * 3 / 11, kPercentTol);  // 0 .25 0
 }
 
@@ -162,6 +165,11 @@ TEST(EvaluateDense, SizeMismatchesAndBadOptionsAreErrors) {
   o.bad1_px = std::nan("");
   EXPECT_FALSE(o.validate().isOk());
   o = StereoEvalOptions{};
+  o.bad05_px = -0.5;
+  s = o.validate();
+  EXPECT_FALSE(s.isOk());
+  EXPECT_NE(s.message().find("bad05_px"), std::string::npos) << s.message();
+  o = StereoEvalOptions{};
   o.k = 0;
   EXPECT_FALSE(o.validate().isOk());
   o = StereoEvalOptions{};
@@ -225,8 +233,9 @@ TEST(EvaluateSalient, HandBuiltHypothesesGiveHandComputedMetrics) {
   // p0 p1 p6: best is LR-consistent and unambiguous; p5's best has consistent rivals 2.5 to
   // 4.5 px away, so it is ambiguous and gives no single-best estimate.
   EXPECT_EQ(m.estimated, 3);
-  EXPECT_NEAR(m.bad1, 100.0 * 1 / 6, kPercentTol);  // p1 (3 px)
-  EXPECT_NEAR(m.bad2, 100.0 * 1 / 6, kPercentTol);  // p1
+  EXPECT_NEAR(m.bad1, 100.0 * 1 / 6, kPercentTol);   // p1 (3 px)
+  EXPECT_NEAR(m.bad2, 100.0 * 1 / 6, kPercentTol);   // p1
+  EXPECT_NEAR(m.bad05, 100.0 * 1 / 6, kPercentTol);  // p1 (p0's .5 is not > .5)
   EXPECT_NEAR(m.avgerr, (0.5 + 3.0 + 0.0) / 3, kErrorTol);
   EXPECT_NEAR(m.density, 100.0 * 3 / 6, kPercentTol);
   EXPECT_EQ(m.k, 4);
@@ -325,6 +334,7 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
   StereoMetrics m;
   m.bad1 = 12.5;
   m.bad2 = 1.0 / 3.0;
+  m.bad05 = 25.0;
   m.avgerr = std::numeric_limits<double>::quiet_NaN();
   m.density = 100.0;
   m.recall_at_k = 50.0;
@@ -334,6 +344,7 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
   const std::string json = toJson(m);
   EXPECT_NE(json.find("\"bad1\": 12.5,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"bad2\": 0.3333333333,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"bad0.5\": 25,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"avgerr\": null,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"points\": 110592,"), std::string::npos) << json;
   EXPECT_NE(json.find("\"ms\": 11.0592,"), std::string::npos) << json;
@@ -343,6 +354,7 @@ TEST(StereoMetricsJson, WritesMetricsKeysInOrderWithFixedFormatting) {
   size_t last = 0;
   for (const char* key : {"bad1",
                           "bad2",
+                          "bad0.5",
                           "avgerr",
                           "density",
                           "recall_at_k",

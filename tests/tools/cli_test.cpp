@@ -722,8 +722,15 @@ TEST(TwocamCli, StereoEvalSyntheticPairBothModes) {
     ASSERT_TRUE(fs::is_regular_file(json_path));
     const auto json = parseFlatJson(readFile(json_path));
     ASSERT_TRUE(json.has_value()) << readFile(json_path);
-    for (const char* key :
-         {"bad1", "bad2", "avgerr", "density", "recall_at_k", "points", "ms", "s_per_mp"}) {
+    for (const char* key : {"bad1",
+                            "bad2",
+                            "bad0.5",
+                            "avgerr",
+                            "density",
+                            "recall_at_k",
+                            "points",
+                            "ms",
+                            "s_per_mp"}) {
       EXPECT_EQ(json->count(key), 1u) << "missing key " << key;
     }
     const auto value = [&](const char* key) {
@@ -735,6 +742,7 @@ TEST(TwocamCli, StereoEvalSyntheticPairBothModes) {
     EXPECT_GT(value("s_per_mp"), 0.0);
     EXPECT_GE(value("bad2"), 0.0);
     EXPECT_LE(value("bad2"), value("bad1"));
+    EXPECT_GE(value("bad0.5"), value("bad1"));
     if (mode == "dense") {
       EXPECT_EQ(value("points"), kPairWidth * kPairHeight);
       EXPECT_LE(value("bad1"), 2.0);
@@ -748,6 +756,35 @@ TEST(TwocamCli, StereoEvalSyntheticPairBothModes) {
     EXPECT_TRUE(pngSize(image_path, &width, &height)) << image_path << " is not a well-formed PNG";
     EXPECT_GE(width, kPairWidth);
     EXPECT_GE(height, kPairHeight);
+  }
+}
+
+TEST(TwocamCli, StereoEvalNccMatcherReportsScaleSharesAndPicture) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_ncc");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string mode : {"dense", "salient"}) {
+    SCOPED_TRACE(mode);
+    const std::string json_path = dir + "/" + mode + ".json";
+    const std::string scale_path = dir + "/" + mode + "_scales.png";
+    const RunResult r = run(stereoEvalArgs(pair,
+                                           "--max-disp 16 --mode " + mode + " --matcher ncc -o " +
+                                               json_path + " --scale-image " + scale_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto json = parseFlatJson(readFile(json_path));
+    ASSERT_TRUE(json.has_value()) << readFile(json_path);
+    double share_sum = 0.0;
+    for (const char* key : {"scale_share_0.707", "scale_share_1", "scale_share_1.414"}) {
+      ASSERT_EQ(json->count(key), 1u) << "missing key " << key;
+      share_sum += json->at(key);
+    }
+    EXPECT_NEAR(share_sum, 100.0, 1e-6);
+    EXPECT_GT(json->at("scale_share_1"), 50.0) << "fronto-parallel layers: mostly square";
+    EXPECT_LE(json->at("bad1"), mode == "dense" ? 2.0 : 5.0);
+    EXPECT_GT(json->at("density"), 50.0);
+    int width = 0, height = 0;
+    EXPECT_TRUE(pngSize(scale_path, &width, &height)) << scale_path;
+    EXPECT_EQ(width, kPairWidth);
+    EXPECT_EQ(height, kPairHeight);
   }
 }
 
@@ -765,6 +802,35 @@ void expectStereoEvalRejected(const std::string& args,
         << "stderr should mention '" << part << "': " << r.error;
   }
   EXPECT_FALSE(fs::exists(json_path)) << "no JSON may be written";
+}
+
+TEST(TwocamCli, StereoEvalMatcherSupport) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_support");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string mode : {"dense", "salient"}) {
+    SCOPED_TRACE(mode);
+    const std::string json_path = dir + "/" + mode + ".json";
+    const RunResult r = run(stereoEvalArgs(
+        pair, "--max-disp 16 --matcher support --mode " + mode + " -o " + json_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto json = parseFlatJson(readFile(json_path));
+    ASSERT_TRUE(json.has_value()) << readFile(json_path);
+    EXPECT_LE(json->at("bad1"), 5.0);
+    EXPECT_GT(json->at("density"), 50.0);
+  }
+  const RunResult none = run(stereoEvalArgs(
+      pair, "--max-disp 16 --matcher support --mode dense --fill none -o " + dir + "/none.json"));
+  EXPECT_EQ(none.exit_code, 0) << none.output;
+  const std::string json = dir + "/bad.json";
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher census"),
+                           json,
+                           {"--matcher", "sad, support", "census"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher support --fill cubic"),
+      json,
+      {"--fill", "cubic"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode dense --fill none"), json, {"--fill", "support"});
 }
 
 TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
@@ -813,6 +879,20 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
                            json,
                            {"--birchfield-tomasi", "salient"});
 
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher zncc"),
+                           json,
+                           {"--matcher", "sad, support, ncc, maxtree", "zncc"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher ncc --post none"),
+                           json,
+                           {"--post", "--matcher sad"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --scale-image " + dir + "/s.png"),
+                           json,
+                           {"--scale-image", "--matcher ncc"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, ok_flags + " --matcher ncc --scale-image " + dir + "/s.xyz"),
+      json,
+      {"--scale-image", "xyz"});
+
   const std::string mask = dir + "/narrow_mask.pgm";
   writePgm(mask,
            kNarrowWidth,
@@ -824,6 +904,32 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
   expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags),
                            "/nonexistent_twocam_dir/out.json",
                            {"/nonexistent_twocam_dir", "does not exist"});
+}
+
+TEST(TwocamCli, StereoEvalMatcherOptionDispatchesAndRejectsUnknownValues) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_matcher");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string mode : {"dense", "sparse", "salient"}) {
+    SCOPED_TRACE(mode);
+    const std::string json_path = dir + "/maxtree_" + mode + ".json";
+    const RunResult r = run(stereoEvalArgs(
+        pair, "--max-disp 16 --matcher maxtree --mode " + mode + " -o " + json_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output << r.error;
+    const auto json = parseFlatJson(readFile(json_path));
+    ASSERT_TRUE(json.has_value()) << readFile(json_path);
+    EXPECT_EQ(json->count("density"), 1u);
+    EXPECT_EQ(json->count("s_per_mp"), 1u);
+  }
+  const std::string json = dir + "/out.json";
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher other"),
+                           json,
+                           {"--matcher", "other", "sad", "maxtree"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode sparse"), json, {"--mode sparse", "maxtree"});
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, "--max-disp 16 --mode dense --matcher maxtree --window 9"),
+      json,
+      {"--window", "sad"});
 }
 
 /// Middlebury Tsukuba (scale 16, 0 = no ground truth); the accuracy targets.
