@@ -124,10 +124,11 @@ int main(int argc, char** argv) {
                           run_policy,
                           "Landmark confidence policy, overrides the config: consistency "
                           "(default), wta-lrc, seen-count, culling, inlier-ratio");
-  auto* run_source_opt = run_cmd->add_option(
-      "--source",
-      run_source,
-      "Hypothesis source, overrides the config: sad (default) or pairing (Paper A)");
+  auto* run_source_opt =
+      run_cmd->add_option("--source",
+                          run_source,
+                          "Hypothesis source, overrides the config: sad (default), pairing (Paper "
+                          "A), support, ncc or maxtree (docs/matchers/)");
   auto* run_localization_opt = run_cmd->add_option(
       "--localization",
       run_localization,

@@ -133,6 +133,10 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
   }
   for (uint64_t id : report.created_ids) {
     const landmarks::Landmark* created = find(id);
+    // Seeded and removed in the same frame (the candidate cap, enforced after seeding).
+    if (created == nullptr && std::find(report.removed_ids.begin(), report.removed_ids.end(), id) !=
+                                  report.removed_ids.end())
+      continue;
     if (created == nullptr) {
       return Status::error("frame " + std::to_string(report.frame) + ": created landmark " +
                            std::to_string(id) + " is unknown");

@@ -15,18 +15,55 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 Status parseHypothesisSource(const std::string& name, HypothesisSource* source) {
-  if (name == "sad") {
-    *source = HypothesisSource::kSad;
-  } else if (name == "pairing") {
-    *source = HypothesisSource::kCornerPairing;
-  } else {
-    return Status::error("unknown hypothesis source '" + name + "'; expected sad or pairing");
+  for (HypothesisSource s : {HypothesisSource::kSad,
+                             HypothesisSource::kCornerPairing,
+                             HypothesisSource::kSupport,
+                             HypothesisSource::kNcc,
+                             HypothesisSource::kMaxTree}) {
+    if (name == hypothesisSourceName(s)) {
+      *source = s;
+      return Status::ok();
+    }
   }
-  return Status::ok();
+  return Status::error("unknown hypothesis source '" + name +
+                       "'; expected sad, pairing, support, ncc or maxtree");
 }
 
 const char* hypothesisSourceName(HypothesisSource source) {
-  return source == HypothesisSource::kSad ? "sad" : "pairing";
+  switch (source) {
+    case HypothesisSource::kSad:
+      return "sad";
+    case HypothesisSource::kCornerPairing:
+      return "pairing";
+    case HypothesisSource::kSupport:
+      return "support";
+    case HypothesisSource::kNcc:
+      return "ncc";
+    case HypothesisSource::kMaxTree:
+      return "maxtree";
+  }
+  return "?";
+}
+
+SupportValueOptions FrontendOptions::supportOptions() const {
+  SupportValueOptions o;
+  o.min_disparity_px = sad.min_disparity_px;
+  o.max_disparity_px = sad.max_disparity_px;
+  o.simd = simd;
+  return o;
+}
+
+NccScaledOptions FrontendOptions::nccOptions() const {
+  NccScaledOptions o;
+  o.min_disparity_px = sad.min_disparity_px;
+  o.max_disparity_px = sad.max_disparity_px;
+  return o;
+}
+
+MaxTreeOptions FrontendOptions::maxTreeOptions() const {
+  MaxTreeOptions o;
+  o.max_disparity_px = sad.max_disparity_px;
+  return o;
 }
 
 Status FrontendOptions::validate() const {
@@ -34,6 +71,16 @@ Status FrontendOptions::validate() const {
   // The components' messages start with the field name: "frontend.harris.border_px = ...".
   if (Status s = harris.validate(); !s) return Status::error("frontend.harris." + s.message());
   if (Status s = sad.validate(); !s) return Status::error("frontend.sad." + s.message());
+  // The other sources run with the SAD range: say so when it does not suit them.
+  const char* name = hypothesisSourceName(source);
+  Status s = Status::ok();
+  if (source == HypothesisSource::kSupport) s = supportOptions().validate();
+  if (source == HypothesisSource::kNcc) s = nccOptions().validate();
+  if (source == HypothesisSource::kMaxTree) s = maxTreeOptions().validate();
+  if (!s) {
+    return Status::error(std::string("frontend.source = ") + name +
+                         " with frontend.sad's disparity range: " + s.message());
+  }
   return Status::ok();
 }
 
@@ -63,16 +110,41 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
         std::to_string(frame.right.height) + ")");
   }
   const auto t0 = std::chrono::steady_clock::now();
-  if (Status s = left_detector_.detect(frame.left, &left_corners_); !s) return s;
-  if (options_.source == HypothesisSource::kCornerPairing) {
+  const HypothesisSource source = options_.source;
+  if (source != HypothesisSource::kMaxTree) {
+    if (Status s = left_detector_.detect(frame.left, &left_corners_); !s) return s;
+  }
+  if (source == HypothesisSource::kCornerPairing) {
     if (Status s = right_detector_.detect(frame.right, &right_corners_); !s) return s;
   }
   timing_.harris_ms = msSince(t0);
   const auto t1 = std::chrono::steady_clock::now();
-  Status s =
-      options_.source == HypothesisSource::kSad
-          ? matchSalient(frame.left, frame.right, left_corners_, options_.sad, out)
-          : pairCorners(frame.left, frame.right, left_corners_, right_corners_, options_.sad, out);
+  Status s = Status::ok();
+  switch (source) {
+    case HypothesisSource::kSad:
+      s = matchSalient(frame.left, frame.right, left_corners_, options_.sad, out);
+      break;
+    case HypothesisSource::kCornerPairing:
+      s = pairCorners(frame.left, frame.right, left_corners_, right_corners_, options_.sad, out);
+      break;
+    case HypothesisSource::kSupport:
+      s = matchSupportValueSalient(
+          frame.left, frame.right, left_corners_, options_.supportOptions(), out);
+      break;
+    case HypothesisSource::kNcc:
+      s = matchNccSalient(frame.left, frame.right, left_corners_, options_.nccOptions(), out);
+      break;
+    case HypothesisSource::kMaxTree:
+      // Its own salient points: Harris corners lie on texture, the trees' nodes on the uniform
+      // runs between edges (docs/matchers/maxtree.md: recall@4 at corners 21-23 %).
+      s = maxtree_.compute(frame.left, frame.right, options_.maxTreeOptions(), &maxtree_result_);
+      if (s) {
+        sparseHypotheses(maxtree_result_, out);
+        left_corners_.clear();
+        for (const SalientPoint& p : out->points) left_corners_.push_back(p.corner);
+      }
+      break;
+  }
   if (!s) return s;
   if (options_.sad.row_support) {
     if (Status r = measureRowSupport(frame.left, frame.right, options_.sad, out); !r) return r;

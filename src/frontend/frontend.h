@@ -11,16 +11,22 @@
 #include "common/frames.h"
 #include "common/status.h"
 #include "frontend/harris.h"
+#include "frontend/maxtree.h"
+#include "frontend/ncc_scaled.h"
 #include "frontend/salient_sad.h"
+#include "frontend/support_value.h"
 
 namespace twocam::frontend {
 
 enum class HypothesisSource {
   kSad,            ///< 1-D SAD cost-curve minima at every left corner (Paper B)
   kCornerPairing,  ///< every right corner in the search window (Paper A)
+  kSupport,        ///< support value at every left corner (seed 004, frontend/support_value.h)
+  kNcc,            ///< scaled-window NCC at every left corner (Bradley 2008, ncc_scaled.h)
+  kMaxTree,        ///< 1-D Max-Tree sparse points, its own salient points (maxtree.h)
 };
 
-/// "sad" or "pairing".
+/// "sad", "pairing", "support", "ncc" or "maxtree".
 Status parseHypothesisSource(const std::string& name, HypothesisSource* source);
 const char* hypothesisSourceName(HypothesisSource source);
 
@@ -38,6 +44,12 @@ struct FrontendOptions {
   [[nodiscard]] Status validate() const;
   /// A copy with harris.simd and sad.simd set to simd (what Frontend runs).
   [[nodiscard]] FrontendOptions applied() const;
+  /// The other matchers' options as the frontend runs them: their papers' defaults (see
+  /// docs/matchers/) with the SAD matcher's disparity range (sad.min/max_disparity_px), so that
+  /// the landmark database's range (pipeline::clampToRig) holds for every source.
+  [[nodiscard]] SupportValueOptions supportOptions() const;
+  [[nodiscard]] NccScaledOptions nccOptions() const;
+  [[nodiscard]] MaxTreeOptions maxTreeOptions() const;
 };
 
 /// Per-frame timings [ms] of the last process() call.
@@ -66,7 +78,8 @@ class Frontend {
                    const std::vector<Corner>& pixels,
                    StereoHypotheses* out) const;
 
-  /// Left corners of the last frame (the salient points, before the matcher dropped any).
+  /// Left corners of the last frame (the salient points, before the matcher dropped any; for
+  /// kMaxTree the sparse points' end points, no Harris corners).
   [[nodiscard]] const std::vector<Corner>& corners() const { return left_corners_; }
   [[nodiscard]] const FrontendTiming& timing() const { return timing_; }
   [[nodiscard]] const FrontendOptions& options() const { return options_; }
@@ -77,6 +90,8 @@ class Frontend {
   HarrisDetector right_detector_;
   std::vector<Corner> left_corners_;
   std::vector<Corner> right_corners_;
+  MaxTreeMatcher maxtree_;
+  MaxTreeResult maxtree_result_;
   FrontendTiming timing_;
 };
 

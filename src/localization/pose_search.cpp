@@ -28,6 +28,12 @@ constexpr int kStepIterations = 6;
 constexpr double kHuberSigma = 2.0;
 constexpr double kInlierChi2 = 11.34;
 constexpr double kJacobianStep = 1e-6;
+/// Most candidates of one reference landmark in the wide search [-], and most votes [-]. 1-D
+/// SAD's 2500 corners give a few hundred candidates in a 12 degree window and up to 3 million
+/// votes at office_loops' slips (a cap of 160 candidates lost one of them and doubled garden's
+/// ATE); a denser source (the Max-Tree's sparse points) would cost seconds in votes.
+constexpr size_t kMaxCandidatesPerReference = 1000;
+constexpr size_t kMaxVotes = size_t{1} << 22;
 /// Most heading steps of the local search on either side [-].
 constexpr int kMaxLocalSteps = 40;
 
@@ -397,7 +403,12 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
         }
       }
     }
-    if (candidates_.size() == begin) continue;
+    // No candidate, or so many that the landmark's votes would be noise (a dense cluster of
+    // points: it costs its square in votes and adds no information).
+    if (candidates_.size() == begin || candidates_.size() - begin > kMaxCandidatesPerReference) {
+      candidates_.resize(begin);
+      continue;
+    }
     refs.push_back({p_b, z});
     candidate_start_.push_back(begin);
   }
@@ -441,7 +452,7 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
           const int64_t bx = std::llround(t.x() / o.vote_m) + nbin_t;
           const int64_t by = std::llround(t.y() / o.vote_m) + nbin_t;
           const int64_t byaw = std::llround(yaw / bin_yaw) + nbin_yaw;
-          votes_.push_back((byaw * span_t + by) * span_t + bx);
+          if (votes_.size() < kMaxVotes) votes_.push_back((byaw * span_t + by) * span_t + bx);
         }
       }
     }

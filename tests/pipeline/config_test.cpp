@@ -402,7 +402,8 @@ TEST(PipelineConfig, RejectsBadSectionsAndDocuments) {
 
 TEST(PipelineConfig, RejectsUnknownEnumNames) {
   expectError("landmarks: {policy: best}", "landmarks.policy", "consistency");
-  expectError("frontend: {source: sgm}", "frontend.source", "sad or pairing");
+  expectError(
+      "frontend: {source: sgm}", "frontend.source", "sad, pairing, support, ncc or maxtree");
   expectError("frontend: {simd: neon}", "frontend.simd", "avx2");
 }
 
