@@ -1,5 +1,6 @@
 #include "stereo_eval_command.h"
 
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -7,6 +8,7 @@
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "eval/disparity_io.h"
 #include "eval/stereo_metrics.h"
@@ -25,8 +27,33 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// The matchers' option checks name their fields; the user typed flags. Each field that a
+/// flag sets is named by its flag (the value in the message is the one the user gave).
+std::string flagWording(std::string message) {
+  static const std::pair<const char*, const char*> kFlags[] = {
+      {"max_disparity_px", "--max-disp"},
+      {"window_width_px", "--window"},
+      {"window_size_px", "--window"},
+      {"window_px", "--window"},
+  };
+  for (const auto& [field, flag] : kFlags) {
+    for (size_t at = message.find(field); at != std::string::npos;
+         at = message.find(field, at + std::string(flag).size())) {
+      const bool word_start =
+          at == 0 ||
+          (!std::isalnum(static_cast<unsigned char>(message[at - 1])) && message[at - 1] != '_');
+      const size_t end = at + std::string(field).size();
+      const bool word_end =
+          end >= message.size() ||
+          (!std::isalnum(static_cast<unsigned char>(message[end])) && message[end] != '_');
+      if (word_start && word_end) message.replace(at, std::string(field).size(), flag);
+    }
+  }
+  return message;
+}
+
 int fail(const std::string& message) {
-  std::cerr << "twocam stereo-eval: error: " << message << std::endl;
+  std::cerr << "twocam stereo-eval: error: " << flagWording(message) << std::endl;
   return 1;
 }
 
@@ -83,7 +110,8 @@ Status evalMaxTree(const StereoEvalArgs& args,
     if (Status s = eval::evaluateSalient(hyps, gt, mask, eval_options, metrics); !s) return s;
     eval::setTiming(ms, left.width, left.height, metrics);
     if (!args.output_image.empty()) {
-      return eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, picture);
+      return eval::renderSalientEvalPicture(
+          left, hyps, gt, args.max_disp, eval_options, picture, mask);
     }
     return Status::ok();
   }
@@ -94,7 +122,7 @@ Status evalMaxTree(const StereoEvalArgs& args,
   if (Status s = eval::evaluateDense(map, gt, mask, eval_options, metrics); !s) return s;
   eval::setTiming(ms, left.width, left.height, metrics);
   if (!args.output_image.empty()) {
-    return eval::renderDenseEvalPicture(left, map, gt, args.max_disp, eval_options, picture);
+    return eval::renderDenseEvalPicture(left, map, gt, args.max_disp, eval_options, picture, mask);
   }
   return Status::ok();
 }
@@ -156,7 +184,7 @@ Status runNcc(const StereoEvalArgs& args,
     }
     if (want_picture) {
       return eval::renderDenseEvalPicture(
-          left, disparity, gt, args.max_disp, eval_options, picture);
+          left, disparity, gt, args.max_disp, eval_options, picture, mask);
     }
     return Status::ok();
   }
@@ -195,7 +223,8 @@ Status runNcc(const StereoEvalArgs& args,
                cv::FILLED);
   }
   if (want_picture) {
-    return eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, picture);
+    return eval::renderSalientEvalPicture(
+        left, hyps, gt, args.max_disp, eval_options, picture, mask);
   }
   return Status::ok();
 }
@@ -220,7 +249,9 @@ int runStereoEval(const StereoEvalArgs& args) {
     return fail("--window applies to --matcher sad, support and ncc only");
   if (args.matcher != "support" && !args.fill.empty())
     return fail("--fill applies to --matcher support only");
-  if (args.matcher != "sad" && (args.birchfield_tomasi || !args.post.empty()))
+  if (args.post_given && args.post.find_first_not_of(" \t") == std::string::npos)
+    return fail("--post is empty; give the steps in order (e.g. lrc,prop,median) or none");
+  if (args.matcher != "sad" && (args.birchfield_tomasi || args.post_given))
     return fail("--birchfield-tomasi and --post apply to --matcher sad only");
   if (!ncc && !args.scale_image.empty()) return fail("--scale-image applies to --matcher ncc only");
   if (Status s = checkWritable(args.scale_image); !s) return fail(s.message());
@@ -262,6 +293,11 @@ int runStereoEval(const StereoEvalArgs& args) {
                 ") images differ in size");
   }
   if (args.max_disp <= 0) return fail("--max-disp must be > 0");
+  // The 1-D SAD and support-value matchers keep a disparity in 8 bits of their cost tables.
+  if ((args.matcher == "sad" || args.matcher == "support") && args.max_disp > 255) {
+    return fail("--max-disp " + std::to_string(args.max_disp) + ": --matcher " + args.matcher +
+                " searches at most 256 disparities (0..255); ncc and maxtree have no such cap");
+  }
   if (args.max_disp >= left.width) {
     return fail("--max-disp " + std::to_string(args.max_disp) +
                 " is not smaller than the image width " + std::to_string(left.width));
@@ -308,7 +344,8 @@ int runStereoEval(const StereoEvalArgs& args) {
     }
     eval::setTiming(ms, left.width, left.height, &metrics);
     if (args.output_image.empty()) return Status::ok();
-    return eval::renderDenseEvalPicture(left, disparity, gt, args.max_disp, eval_options, &picture);
+    return eval::renderDenseEvalPicture(
+        left, disparity, gt, args.max_disp, eval_options, &picture, mask.empty() ? nullptr : &mask);
   };
   NccScaleReport ncc_report;
   if (args.matcher == "maxtree") {
@@ -356,7 +393,7 @@ int runStereoEval(const StereoEvalArgs& args) {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;
     if (args.window_px > 0) options.window_width_px = args.window_px;
-    if (!args.post.empty()) {
+    if (args.post_given) {
       if (Status s = frontend::parsePostSteps(args.post, &options.steps); !s)
         return fail(s.message());
     }
@@ -415,8 +452,13 @@ int runStereoEval(const StereoEvalArgs& args) {
     }
     eval::setTiming(ms, left.width, left.height, &metrics);
     if (!args.output_image.empty()) {
-      if (Status s =
-              eval::renderSalientEvalPicture(left, hyps, gt, args.max_disp, eval_options, &picture);
+      if (Status s = eval::renderSalientEvalPicture(left,
+                                                    hyps,
+                                                    gt,
+                                                    args.max_disp,
+                                                    eval_options,
+                                                    &picture,
+                                                    mask.empty() ? nullptr : &mask);
           !s) {
         return fail(s.message());
       }

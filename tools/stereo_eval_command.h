@@ -27,8 +27,11 @@ struct StereoEvalArgs {
   std::string output_image;
   /// Matching window width [px]; 0 = the mode's default (dense 7, salient 11).
   int window_px = 0;
-  /// Dense post-processing order, e.g. "lrc,prop,median" (empty = the default order).
+  /// Dense post-processing order, e.g. "lrc,prop,median" or "none" (not given = the default
+  /// order); post_given: the flag was on the command line (an empty value is then an error,
+  /// not the default).
   std::string post;
+  bool post_given = false;
   /// Salient mode: number of corners per megapixel the detector aims for.
   int corners_per_mp = 3255;  // 1000 corners at 640x480
   /// Also drop pixels the right camera cannot see, derived from the ground truth

@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
   auto* gt_invalid_opt = stereo_eval->add_option(
       "--gt-invalid",
       se_gt_invalid,
-      "Stored value meaning 'no ground truth' (default 0 for integer files; PFM: inf)");
+      "Stored value meaning 'no ground truth' besides 0 for integer files (PFM: inf)");
   stereo_eval->add_option("--mask", se.mask_path, "Evaluate only pixels whose mask value is 255");
   stereo_eval->add_option("--border", se.border_px, "Ignore this many pixels at every image edge");
   stereo_eval->add_option("--max-disp", se.max_disp, "Largest disparity searched [px]")->required();
@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
                           "sad (1-D SAD, default), support (support value), ncc (scaled-window "
                           "NCC, Bradley 2008) or maxtree (1-D Max-Trees; --mode dense = "
                           "semi-dense, sparse = node end points, salient = nodes at corners)");
-  stereo_eval->add_option(
+  auto* post_opt = stereo_eval->add_option(
       "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
   stereo_eval->add_option("--scale-image",
                           se.scale_image,
@@ -226,6 +226,7 @@ int main(int argc, char** argv) {
     }
     if (stereo_eval->parsed()) {
       if (gt_invalid_opt->count() > 0) se.gt_invalid = se_gt_invalid;
+      se.post_given = post_opt->count() > 0;
       return twocam::tools::runStereoEval(se);
     }
   } catch (const std::exception& e) {

@@ -228,7 +228,10 @@ Status loadDisparityGroundTruth(const std::string& path,
   for (int v = 0; v < mat.rows; ++v) {
     for (int u = 0; u < mat.cols; ++u) {
       const double value = mat.depth() == CV_8U ? mat.at<uint8_t>(v, u) : mat.at<uint16_t>(v, u);
-      if (value == invalid) {
+      // Raw 0 stays invalid whatever invalid_value says: Middlebury v2 and KITTI write 0 for
+      // unknown disparity, and an 8-bit map with --gt-invalid 255 would otherwise turn its
+      // unknown pixels into valid disparity 0.
+      if (value == invalid || value == 0.0) {
         setInvalid(&out, u, v);
       } else {
         out.d_px(u, v) = static_cast<float>(value / scale);

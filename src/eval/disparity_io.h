@@ -38,8 +38,9 @@ constexpr double kDepthDiscontinuityRelSpan = 0.05;
 ///   (Middlebury writes inf) are invalid. Pass scale 1. A three-channel "PF" file is an error
 ///   (a colour PFM is not a disparity map; taking one channel would hide a wrong file).
 /// - 8- or 16-bit single-channel PNG/PGM (Middlebury v2, KITTI): d = value / scale.
-///   Pixels whose raw integer value equals `invalid_value` are invalid; when it is not given,
-///   raw 0 is invalid (Middlebury v2 and KITTI both mark unknown disparity with 0).
+///   Pixels whose raw integer value equals `invalid_value` are invalid, and raw 0 always is
+///   (Middlebury v2 and KITTI both mark unknown disparity with 0; a further `invalid_value`
+///   such as 255 adds to it, it does not replace it).
 /// For every format, a given `invalid_value` is compared with the raw stored value, and a
 /// resulting disparity that is negative or non-finite is invalid (d >= 0 by convention).
 /// Errors (message names the path): missing file, unreadable or truncated image, multi-channel

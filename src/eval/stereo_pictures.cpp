@@ -111,12 +111,13 @@ Status renderDenseEvalPicture(const ImageU8& left,
                               const DisparityGroundTruth& gt,
                               double max_disp_px,
                               const StereoEvalOptions& options,
-                              cv::Mat* picture) {
+                              cv::Mat* picture,
+                              const ImageU8* mask) {
   constexpr const char* kWho = "renderDenseEvalPicture";
   if (Status s = checkMaxDisp(max_disp_px, kWho); !s) return s;
   // Validates options, gt and the disparity size, and gives the summary line.
   StereoMetrics metrics;
-  if (Status s = evaluateDense(disparity, gt, nullptr, options, &metrics); !s) return s;
+  if (Status s = evaluateDense(disparity, gt, mask, options, &metrics); !s) return s;
   if (left.empty() || !sameSize(left.width, left.height, gt) ||
       left.data.size() != gt.d_px.data.size()) {
     return Status::error(std::string(kWho) + ": left image is " + std::to_string(left.width) + "x" +
@@ -135,7 +136,8 @@ Status renderDenseEvalPicture(const ImageU8& left,
       const float d = disparity(u, v);
       const bool has_estimate = d >= 0.0f && std::isfinite(d);
       if (has_estimate) estimate.at<cv::Vec3b>(v, u) = disparityColour(d, max_disp_px, lut);
-      const bool evaluated = gt.valid(u, v) != 0 && u >= b && v >= b && u < w - b && v < h - b;
+      const bool evaluated = gt.valid(u, v) != 0 && u >= b && v >= b && u < w - b && v < h - b &&
+                             (mask == nullptr || (*mask)(u, v) == 255);
       if (!evaluated) continue;
       cv::Scalar colour = kGrey;
       if (has_estimate) {
@@ -204,12 +206,13 @@ Status renderSalientEvalPicture(const ImageU8& left,
                                 const DisparityGroundTruth& gt,
                                 double max_disp_px,
                                 const StereoEvalOptions& options,
-                                cv::Mat* picture) {
+                                cv::Mat* picture,
+                                const ImageU8* mask) {
   constexpr const char* kWho = "renderSalientEvalPicture";
   if (Status s = checkMaxDisp(max_disp_px, kWho); !s) return s;
   // Validates options, gt and every point's hypotheses, and gives the summary line.
   StereoMetrics metrics;
-  if (Status s = evaluateSalient(hyps, gt, nullptr, options, &metrics); !s) return s;
+  if (Status s = evaluateSalient(hyps, gt, mask, options, &metrics); !s) return s;
   if (left.empty() || !sameSize(left.width, left.height, gt) ||
       left.data.size() != gt.d_px.data.size()) {
     return Status::error(std::string(kWho) + ": left image is " + std::to_string(left.width) + "x" +
@@ -225,7 +228,9 @@ Status renderSalientEvalPicture(const ImageU8& left,
   for (size_t i = 0; i < hyps.points.size(); ++i) {
     const SalientPoint& p = hyps.points[i];
     const cv::Point at(p.corner.u_px, p.corner.v_px);
-    const SalientOutcome outcome = classifySalientPoint(hyps, i, gt, options);
+    const SalientOutcome outcome = mask != nullptr && (*mask)(p.corner.u_px, p.corner.v_px) != 255
+                                       ? SalientOutcome::kNotEvaluated
+                                       : classifySalientPoint(hyps, i, gt, options);
     ++counts[static_cast<size_t>(outcome)];
     const DisparityHypothesis* best = nullptr;
     for (uint32_t j = p.first_hypothesis; j < p.first_hypothesis + p.num_hypotheses; ++j) {

@@ -18,7 +18,8 @@ namespace twocam::eval {
 /// One row of four labelled panels, each the size of `left`:
 ///   left image | estimated disparity | ground-truth disparity | error map.
 /// Error map: green |d - d_gt| <= bad1_px, orange <= bad2_px, red above, grey = evaluated but no
-/// estimate, black = not evaluated (no ground truth or border).
+/// estimate, black = not evaluated (no ground truth, border, or outside `mask` when given: only
+/// pixels whose mask value is 255 count, in the colours and in the caption's figures alike).
 /// Errors: empty inputs; left, disparity and gt sizes differ; max_disp_px not finite and > 0;
 /// options invalid.
 Status renderDenseEvalPicture(const ImageU8& left,
@@ -26,7 +27,8 @@ Status renderDenseEvalPicture(const ImageU8& left,
                               const DisparityGroundTruth& gt,
                               double max_disp_px,
                               const StereoEvalOptions& options,
-                              cv::Mat* picture);
+                              cv::Mat* picture,
+                              const ImageU8* mask = nullptr);
 
 /// Outcome of one salient point, as the salient picture colours it.
 enum class SalientOutcome {
@@ -56,6 +58,7 @@ Status renderSalientEvalPicture(const ImageU8& left,
                                 const DisparityGroundTruth& gt,
                                 double max_disp_px,
                                 const StereoEvalOptions& options,
-                                cv::Mat* picture);
+                                cv::Mat* picture,
+                                const ImageU8* mask = nullptr);
 
 }  // namespace twocam::eval

@@ -196,12 +196,13 @@ TEST(DisparityIo, EightBitPgmDividesByScaleAndZeroIsInvalid) {
   EXPECT_NEAR(gt.d_px(0, 1), 14.0f, kExactF);
   EXPECT_NEAR(gt.d_px(1, 1), 255.0f / 16.0f, kExactF);
   EXPECT_NEAR(gt.d_px(2, 1), 1.0f / 16.0f, kExactF);
-  // With an explicit invalid value 255, 0 becomes a valid zero disparity.
+  // An explicit invalid value 255 adds to 0, it does not replace it: the map's unknown pixels
+  // (raw 0) stay unknown instead of becoming a valid zero disparity.
   s = loadDisparityGroundTruth(path, 16.0, 255.0, &gt);
   ASSERT_TRUE(s.isOk()) << s.message();
-  EXPECT_EQ(gt.valid(0, 0), 1);
-  EXPECT_EQ(gt.d_px(0, 0), 0.0f);
+  EXPECT_EQ(gt.valid(0, 0), 0);
   EXPECT_EQ(gt.valid(1, 1), 0);
+  EXPECT_EQ(gt.valid(1, 0), 1);
 }
 
 TEST(DisparityIo, SixteenBitPngAndPgmKeepFullRange) {

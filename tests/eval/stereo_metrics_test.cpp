@@ -453,6 +453,30 @@ TEST(StereoPictures, DenseErrorPanelColoursEachOutcome) {
   EXPECT_FALSE(renderDenseEvalPicture(ImageU8(), disparity, gt, 16.0, {}, &picture).isOk());
 }
 
+TEST(StereoPictures, DenseErrorPanelHonoursTheMask) {
+  constexpr int kW = 60;
+  constexpr int kH = 100;
+  constexpr int kRow = 50;
+  const DisparityGroundTruth gt = flatGroundTruth(kW, kH, 10.0f);
+  ImageF32 disparity(kW, kH, 15.0f);  // wrong everywhere: red where evaluated
+  ImageU8 mask(kW, kH, 255);
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 30; u < kW; ++u) mask(u, v) = 0;  // the right half is not evaluated
+  }
+  const ImageU8 left(kW, kH, 90);
+  cv::Mat picture;
+  ASSERT_TRUE(
+      renderDenseEvalPicture(left, disparity, gt, 16.0, StereoEvalOptions{}, &picture, &mask)
+          .isOk());
+  const int errors_x = 3 * (kW + kGapPx);
+  EXPECT_EQ(pixel(picture, errors_x + 10, kRow), kRedPx);
+  EXPECT_EQ(pixel(picture, errors_x + 40, kRow), kBlackPx) << "outside the mask: not evaluated";
+  const ImageU8 wrong_size(kW - 1, kH, 255);
+  EXPECT_FALSE(
+      renderDenseEvalPicture(left, disparity, gt, 16.0, StereoEvalOptions{}, &picture, &wrong_size)
+          .isOk());
+}
+
 TEST(StereoPictures, SalientPointsColouredByOutcome) {
   constexpr int kW = 60;
   constexpr int kH = 100;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "io/json.h"
 #include "io/rawlog.h"
 #include "support/command.h"
 #include "support/test_paths.h"
@@ -833,6 +834,46 @@ TEST(TwocamCli, StereoEvalMatcherSupport) {
       stereoEvalArgs(pair, "--max-disp 16 --mode dense --fill none"), json, {"--fill", "support"});
 }
 
+// The salient figures docs/frontend.md quotes for Middlebury, pinned: the binary must keep
+// giving them (the command is deterministic; the tolerance only absorbs the printed rounding).
+TEST(TwocamCli, StereoEvalSalientGivesTheDocumentedMiddleburyFigures) {
+  TWOCAM_REQUIRE_SHARED_DATA(data);
+  constexpr double kPrintedTol = 0.006;  // the JSON's 10 digits against 2 decimals here
+  struct Row {
+    const char* scene;
+    const char* files;
+    bool exclude_occluded;
+    double points, evaluated, recall_at_k, recall_at_1, bad1, density;
+  };
+  const std::string m = data + "/middlebury";
+  const std::string tsukuba = "--left " + m + "/tsukuba/im3.png --right " + m +
+                              "/tsukuba/im4.png --gt " + m +
+                              "/tsukuba/disp3.pgm --gt-scale 16 --max-disp 16";
+  const std::string venus = "--left " + m + "/venus/im2.png --right " + m + "/venus/im6.png --gt " +
+                            m + "/venus/disp2.pgm --gt-scale 8 --max-disp 20";
+  const Row rows[] = {
+      {"tsukuba", tsukuba.c_str(), false, 360, 343, 90.38, 83.67, 7.00, 82.51},
+      {"tsukuba", tsukuba.c_str(), true, 360, 320, 95.00, 89.06, 4.38, 84.69},
+      {"venus", venus.c_str(), false, 541, 541, 95.75, 94.27, 0.74, 90.39},
+      {"venus", venus.c_str(), true, 541, 520, 99.42, 97.88, 0.58, 93.85},
+  };
+  for (const Row& row : rows) {
+    const std::string args = std::string("stereo-eval ") + row.files + " --mode salient" +
+                             (row.exclude_occluded ? " --exclude-occluded" : "");
+    SCOPED_TRACE(args);
+    const RunResult r = run(args);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const std::string out = r.output.substr(0, r.output.size() - r.error.size());
+    const io::Json j = io::Json::parse(out);
+    EXPECT_EQ(j.at("points").get<double>(), row.points);
+    EXPECT_EQ(j.at("evaluated").get<double>(), row.evaluated);
+    EXPECT_NEAR(j.at("recall_at_k").get<double>(), row.recall_at_k, kPrintedTol);
+    EXPECT_NEAR(j.at("recall_at_1").get<double>(), row.recall_at_1, kPrintedTol);
+    EXPECT_NEAR(j.at("bad1").get<double>(), row.bad1, kPrintedTol);
+    EXPECT_NEAR(j.at("density").get<double>(), row.density, kPrintedTol);
+  }
+}
+
 TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
   const std::string dir = test::makeTempDir("cli_stereo_eval_bad");
   const SyntheticPair pair = writeSyntheticPair(dir);
@@ -879,6 +920,12 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
                            json,
                            {"--birchfield-tomasi", "salient"});
 
+  expectStereoEvalRejected(
+      stereoEvalArgs(pair, ok_flags + " --post ''"), json, {"--post", "empty", "none"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 300 --mode dense"),
+                           json,
+                           {"--max-disp 300", "256 disparities"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --window 8"), json, {"--window"});
   expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher zncc"),
                            json,
                            {"--matcher", "sad, support, ncc, maxtree", "zncc"});
