@@ -167,8 +167,7 @@ void visitFrontend(O& o, V& v) {
   v.section("sad", "salient 1-D SAD matching (frontend/salient_sad.h)", [&](V& s) {
     visitSad(o.sad, s);
   });
-  TWOCAM_CONFIG_KEY(source,
-                    "where hypotheses come from: sad | pairing | support | ncc | maxtree");
+  TWOCAM_CONFIG_KEY(source, "where hypotheses come from: sad | pairing | support | ncc | maxtree");
   TWOCAM_CONFIG_KEY(simd,
                     "SIMD build of Harris and the SAD kernels, identical results: "
                     "auto | scalar | sse2 | avx2");
