@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <utility>
@@ -241,9 +242,14 @@ Status writeText(const std::string& path, const std::string& text) {
 }  // namespace
 
 int runStereoEval(const StereoEvalArgs& args) {
+  const bool opencv = args.matcher == "opencv-bm" || args.matcher == "opencv-sgbm";
   if (args.matcher != "sad" && args.matcher != "support" && args.matcher != "ncc" &&
-      args.matcher != "maxtree")
-    return fail("--matcher must be one of: sad, support, ncc, maxtree; got '" + args.matcher + "'");
+      args.matcher != "maxtree" && !opencv)
+    return fail(
+        "--matcher must be one of: sad, support, ncc, maxtree, opencv-bm, opencv-sgbm; got '" +
+        args.matcher + "'");
+  if (opencv && args.mode != "dense")
+    return fail("--matcher " + args.matcher + " is a dense reference: --mode dense only");
   const bool ncc = args.matcher == "ncc";
   if (args.matcher == "maxtree" && args.window_px > 0)
     return fail("--window applies to --matcher sad, support and ncc only");
@@ -389,6 +395,51 @@ int runStereoEval(const StereoEvalArgs& args) {
         !s) {
       return fail(s.message());
     }
+  } else if (opencv) {
+    // OpenCV's block matchers as the reference, with the parameters of the frontend benchmark
+    // (tests/bench/dense_bench.cpp): disparities rounded up to a multiple of 16, BM block 7
+    // (--window), SGBM block 5 with P1 = 8 x 25, P2 = 32 x 25. Their 1/16 px fixed point is
+    // converted, negative values (no match) become kNoDisparity.
+    const int n = (args.max_disp + 1 + 15) / 16 * 16;
+    if (n >= left.width)
+      return fail("--max-disp rounded up to " + std::to_string(n) +
+                  " disparities (OpenCV wants a multiple of 16) is not smaller "
+                  "than the image width");
+    cv::Ptr<cv::StereoMatcher> m;
+    if (args.matcher == "opencv-bm") {
+      const int block = args.window_px > 0 ? args.window_px : 7;
+      if (block < 5 || block > 255 || block % 2 == 0)
+        return fail("--window " + std::to_string(block) + ": opencv-bm wants an odd block 5..255");
+      m = cv::StereoBM::create(n, block);
+    } else {
+      const int block = args.window_px > 0 ? args.window_px : 5;
+      if (block < 1 || block % 2 == 0)
+        return fail("--window " + std::to_string(block) + ": opencv-sgbm wants an odd block");
+      m = cv::StereoSGBM::create(0,
+                                 n,
+                                 block,
+                                 8 * block * block,
+                                 32 * block * block,
+                                 1,
+                                 0,
+                                 10,
+                                 100,
+                                 1,
+                                 cv::StereoSGBM::MODE_SGBM);
+    }
+    cv::Mat fixed;
+    m->compute(frontend::asMat(left), frontend::asMat(right), fixed);  // warm-up
+    const auto t0 = std::chrono::steady_clock::now();
+    m->compute(frontend::asMat(left), frontend::asMat(right), fixed);
+    const double ms = msSince(t0);
+    ImageF32 disparity(left.width, left.height);
+    for (int v = 0; v < left.height; ++v) {
+      for (int u = 0; u < left.width; ++u) {
+        const int16_t raw = fixed.at<int16_t>(v, u);
+        disparity(u, v) = raw < 0 ? frontend::kNoDisparity : static_cast<float>(raw) / 16.0f;
+      }
+    }
+    if (Status s = score_dense(disparity, ms); !s) return fail(s.message());
   } else if (args.mode == "dense") {
     frontend::DenseSadOptions options;
     options.max_disparity_px = args.max_disp;

@@ -90,8 +90,9 @@ int main(int argc, char** argv) {
   stereo_eval->add_option("--matcher",
                           se.matcher,
                           "sad (1-D SAD, default), support (support value), ncc (scaled-window "
-                          "NCC, Bradley 2008) or maxtree (1-D Max-Trees; --mode dense = "
-                          "semi-dense, sparse = node end points, salient = nodes at corners)");
+                          "NCC, Bradley 2008), maxtree (1-D Max-Trees; --mode dense = "
+                          "semi-dense, sparse = node end points, salient = nodes at corners), or "
+                          "the dense references opencv-bm / opencv-sgbm");
   auto* post_opt = stereo_eval->add_option(
       "--post", se.post, "Dense post-processing steps in order, e.g. lrc,prop,median or none");
   stereo_eval->add_option("--scale-image",

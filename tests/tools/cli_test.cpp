@@ -874,6 +874,21 @@ TEST(TwocamCli, StereoEvalSalientGivesTheDocumentedMiddleburyFigures) {
   }
 }
 
+TEST(TwocamCli, StereoEvalOpenCvReferencesScoreTheSyntheticPair) {
+  const std::string dir = test::makeTempDir("cli_stereo_eval_opencv");
+  const SyntheticPair pair = writeSyntheticPair(dir);
+  for (const std::string matcher : {"opencv-bm", "opencv-sgbm"}) {
+    SCOPED_TRACE(matcher);
+    const std::string json_path = dir + "/" + matcher + ".json";
+    const RunResult r = run(stereoEvalArgs(
+        pair, "--max-disp 16 --mode dense --matcher " + matcher + " -o " + json_path));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const io::Json j = io::Json::parse(readFile(json_path));
+    EXPECT_GT(j.at("density").get<double>(), 0.0);
+    EXPECT_LE(j.at("bad1").get<double>(), j.at("density").get<double>());
+  }
+}
+
 TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
   const std::string dir = test::makeTempDir("cli_stereo_eval_bad");
   const SyntheticPair pair = writeSyntheticPair(dir);
@@ -926,9 +941,12 @@ TEST(TwocamCli, StereoEvalBadInputGivesClearErrorAndNoJson) {
                            json,
                            {"--max-disp 300", "256 disparities"});
   expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --window 8"), json, {"--window"});
+  expectStereoEvalRejected(stereoEvalArgs(pair, "--max-disp 16 --mode salient --matcher opencv-bm"),
+                           json,
+                           {"opencv-bm", "--mode dense only"});
   expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher zncc"),
                            json,
-                           {"--matcher", "sad, support, ncc, maxtree", "zncc"});
+                           {"--matcher", "sad, support, ncc, maxtree, opencv-bm", "zncc"});
   expectStereoEvalRejected(stereoEvalArgs(pair, ok_flags + " --matcher ncc --post none"),
                            json,
                            {"--post", "--matcher sad"});
