@@ -4,6 +4,7 @@
 #include <chrono>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "eval/stereo_pictures.h"
 #include "frontend/cv_interop.h"
@@ -19,6 +20,28 @@ namespace {
 
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The salient modes' corners: Harris aiming at corners_per_mp, shown the image
+/// kSettlingPasses times so that its adaptive threshold (tuned from frame to frame) settles near
+/// the target; the caller times the next detect().
+constexpr int kSettlingPasses = 4;
+Status settledDetector(const ImageU8& left,
+                       int corners_per_mp,
+                       std::optional<frontend::HarrisDetector>* detector,
+                       std::vector<Corner>* corners) {
+  frontend::HarrisOptions harris;
+  harris.target_count =
+      std::max(1,
+               static_cast<int>(
+                   corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
+  harris.max_corners = 2 * harris.target_count;
+  if (Status s = harris.validate(); !s) return s;
+  detector->emplace(harris);
+  for (int pass = 0; pass < kSettlingPasses; ++pass) {
+    if (Status s = (*detector)->detect(left, corners); !s) return s;
+  }
+  return Status::ok();
 }
 
 /// `--matcher maxtree`: semi-dense (dense), sparse or salient output of frontend/maxtree.h, timed
@@ -38,21 +61,12 @@ Status evalMaxTree(const MatcherRun& args,
   frontend::MaxTreeResult result;
   if (Status s = matcher.compute(left, right, options, &result); !s) return s;  // warm-up
   if (args.mode == "salient") {
-    frontend::HarrisOptions harris;
-    harris.target_count = std::max(
-        1,
-        static_cast<int>(
-            args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
-    harris.max_corners = 2 * harris.target_count;
-    if (Status s = harris.validate(); !s) return s;
-    frontend::HarrisDetector detector(harris);
+    std::optional<frontend::HarrisDetector> detector;
     std::vector<Corner> corners;
-    for (int pass = 0; pass < 4; ++pass) {  // settle the adaptive threshold, as for SAD
-      if (Status s = detector.detect(left, &corners); !s) return s;
-    }
+    if (Status s = settledDetector(left, args.corners_per_mp, &detector, &corners); !s) return s;
     StereoHypotheses hyps;
     const auto t0 = std::chrono::steady_clock::now();
-    if (Status s = detector.detect(left, &corners); !s) return s;
+    if (Status s = detector->detect(left, &corners); !s) return s;
     if (Status s = frontend::matchMaxTreeSalient(left, right, corners, options, &hyps); !s)
       return s;
     const double ms = msSince(t0);
@@ -138,25 +152,15 @@ Status runNcc(const MatcherRun& args,
     }
     return Status::ok();
   }
-  frontend::HarrisOptions harris;
-  harris.target_count = std::max(
-      1,
-      static_cast<int>(args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height +
-                       0.5));
-  harris.max_corners = 2 * harris.target_count;
-  if (Status s = harris.validate(); !s) return s;
-  frontend::HarrisDetector detector(harris);
+  std::optional<frontend::HarrisDetector> detector;
   std::vector<Corner> corners;
+  if (Status s = settledDetector(left, args.corners_per_mp, &detector, &corners); !s) return s;
   StereoHypotheses hyps;
   std::vector<uint8_t> scales;
-  constexpr int kSettlingPasses = 4;  // as the SAD branch: let the corner count settle
-  for (int pass = 0; pass < kSettlingPasses; ++pass) {
-    if (Status s = detector.detect(left, &corners); !s) return s;
-  }
   if (Status s = frontend::matchNccSalient(left, right, corners, options, &hyps, &scales); !s)
     return s;
   const auto t0 = std::chrono::steady_clock::now();
-  if (Status s = detector.detect(left, &corners); !s) return s;
+  if (Status s = detector->detect(left, &corners); !s) return s;
   if (Status s = frontend::matchNccSalient(left, right, corners, options, &hyps, &scales); !s)
     return s;
   const double ms = msSince(t0);
@@ -220,8 +224,7 @@ Status runMatcher(const ImageU8& left,
     options.max_disparity_px = args.max_disparity_px;
     if (args.window_px > 0) options.window_px = args.window_px;
     if (!args.fill.empty()) {
-      if (Status s = frontend::parseSupportFill(args.fill, &options.fill); !s)
-        return s;
+      if (Status s = frontend::parseSupportFill(args.fill, &options.fill); !s) return s;
     }
     if (Status s = options.validate(); !s) return s;
     frontend::SupportValueMatcher matcher;
@@ -298,29 +301,17 @@ Status runMatcher(const ImageU8& left,
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;
     if (Status s = score_dense(disparity, msSince(t0)); !s) return s;
   } else {
-    frontend::HarrisOptions harris;
-    harris.target_count = std::max(
-        1,
-        static_cast<int>(
-            args.corners_per_mp * 1e-6 * static_cast<double>(left.width) * left.height + 0.5));
-    harris.max_corners = 2 * harris.target_count;
     frontend::SalientSadOptions sad;
     sad.max_disparity_px = args.max_disparity_px;
     if (args.window_px > 0) sad.window_width_px = args.window_px;
     sad.birchfield_tomasi = args.birchfield_tomasi;
-    if (Status s = harris.validate(); !s) return s;
     if (Status s = sad.validate(); !s) return s;
     if (args.max_disparity_px + sad.window_width_px > left.width)
       return Status::error("max_disparity_px plus the window is wider than the image");
-    // The detector adapts its threshold from frame to frame; a single image is shown to it a few
-    // times so that the count settles near the target, and the last pass is timed.
-    frontend::HarrisDetector detector(harris);
+    std::optional<frontend::HarrisDetector> detector;
     std::vector<Corner> corners;
+    if (Status s = settledDetector(left, args.corners_per_mp, &detector, &corners); !s) return s;
     StereoHypotheses hyps;
-    constexpr int kSettlingPasses = 4;
-    for (int pass = 0; pass < kSettlingPasses; ++pass) {
-      if (Status s = detector.detect(left, &corners); !s) return s;
-    }
     frontend::SupportValueOptions support;
     support.max_disparity_px = args.max_disparity_px;
     if (args.window_px > 0) support.window_px = args.window_px;
@@ -334,7 +325,7 @@ Status runMatcher(const ImageU8& left,
     };
     if (Status s = match(); !s) return s;
     const auto t0 = std::chrono::steady_clock::now();
-    if (Status s = detector.detect(left, &corners); !s) return s;
+    if (Status s = detector->detect(left, &corners); !s) return s;
     if (Status s = match(); !s) return s;
     const double ms = msSince(t0);
     if (Status s = evaluateSalient(hyps, gt, mask, eval_options, &out->metrics); !s) {
