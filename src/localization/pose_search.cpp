@@ -167,16 +167,6 @@ int PoseSearch::scoreMatches(const StereoRig& rig,
   return count;
 }
 
-int PoseSearch::score(const StereoRig& rig,
-                      const Eigen::Isometry3d& T_w_b,
-                      const std::vector<Eigen::Vector3d>& reference_w,
-                      const StereoHypotheses& hyps,
-                      const PoseSearchOptions& options,
-                      int* in_view) {
-  if (claimed_.size() != hyps.points.size()) buildGrid(rig, hyps);
-  return scoreMatches(rig, T_w_b, reference_w, hyps, options, in_view, nullptr);
-}
-
 bool PoseSearch::fitStep(const StereoRig& rig,
                          const Eigen::Isometry3d& T_w_b_predicted,
                          const std::vector<Eigen::Vector3d>& reference_w,

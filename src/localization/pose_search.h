@@ -72,23 +72,16 @@ class PoseSearch {
                        const StereoHypotheses& hyps,
                        const PoseSearchOptions& options);
 
-  /// One-to-one matches of the reference landmarks at pose T_w_b against the hypotheses of the
-  /// last run() (its grid): per landmark the nearest salient point within match_px whose
-  /// hypotheses hold one within match_disparity_px, each point taken once, landmarks in input
-  /// order. Returns the count; `in_view` (optional) gets how many project into the image.
-  int score(const StereoRig& rig,
-            const Eigen::Isometry3d& T_w_b,
-            const std::vector<Eigen::Vector3d>& reference_w,
-            const StereoHypotheses& hyps,
-            const PoseSearchOptions& options,
-            int* in_view = nullptr);
-
  private:
   struct Candidate {
     Eigen::Vector3d q_b;  // the hypothesis' stereo point in the true body frame [m]
     uint32_t point;
   };
   void buildGrid(const StereoRig& rig, const StereoHypotheses& hyps);
+  /// One-to-one matches of the reference landmarks at pose T_w_b: per landmark, in input order,
+  /// the nearest untaken salient point within match_px whose hypotheses hold one within
+  /// match_disparity_px. Returns the count; in_view and matches (reference index, point) are
+  /// optional.
   int scoreMatches(const StereoRig& rig,
                    const Eigen::Isometry3d& T_w_b,
                    const std::vector<Eigen::Vector3d>& reference_w,
