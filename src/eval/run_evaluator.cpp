@@ -53,12 +53,12 @@ std::string timingsCsv(const std::vector<pipeline::FrameRecord>& records) {
   std::ostringstream csv;
   csv << std::setprecision(6)
       << "frame,frontend_ms,landmarks_ms,localization_ms,mapping_ms,total_ms,corners,hypotheses,"
-         "candidates,confirmed,confirmations,reassociated\n";
+         "candidates,confirmed,confirmations,reassociated,fused,reclaimed\n";
   for (const pipeline::FrameRecord& r : records) {
     csv << r.frame << ',' << r.times.frontend_ms << ',' << r.times.landmarks_ms << ','
         << r.times.localization_ms << ',' << r.times.mapping_ms << ',' << r.times.totalMs() << ','
         << r.corners << ',' << r.hypotheses << ',' << r.candidates << ',' << r.confirmed << ','
-        << r.confirmations << ',' << r.reassociated << '\n';
+        << r.confirmations << ',' << r.reassociated << ',' << r.fused << ',' << r.reclaimed << '\n';
   }
   return csv.str();
 }
@@ -239,7 +239,7 @@ Json revisitsJson(const std::vector<io::TimedPose>& gt, const pipeline::RunSumma
              "laps)"}};
   }
   Json ends = Json::array(), per_lap = Json::array();
-  int64_t lap_count = 0, later = 0;
+  int64_t lap_count = 0, later = 0, later_fused = 0, later_reclaimed = 0;
   size_t lap = 0;
   int confirmed_after_first = 0;
   for (size_t i = 0; i < s.records.size() && i < gt.size(); ++i) {
@@ -250,7 +250,11 @@ Json revisitsJson(const std::vector<io::TimedPose>& gt, const pipeline::RunSumma
       ++lap;
     }
     lap_count += s.records[i].confirmations;
-    if (lap >= 1) later += s.records[i].confirmations;
+    if (lap >= 1) {
+      later += s.records[i].confirmations;
+      later_fused += s.records[i].fused;
+      later_reclaimed += s.records[i].reclaimed;
+    }
   }
   per_lap.push_back(lap_count);
   for (size_t e : lap_ends) ends.push_back(s.records[e].frame);
@@ -259,6 +263,8 @@ Json revisitsJson(const std::vector<io::TimedPose>& gt, const pipeline::RunSumma
       {"confirmations_per_lap", per_lap},
       {"confirmed_after_first_lap", confirmed_after_first},
       {"confirmations_after_first_lap", later},
+      {"fused_after_first_lap", later_fused},
+      {"reclaimed_after_first_lap", later_reclaimed},
       {"growth_after_first_lap",
        confirmed_after_first > 0 ? numberOrNull(static_cast<double>(later) / confirmed_after_first)
                                  : Json(nullptr)}};

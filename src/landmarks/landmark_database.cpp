@@ -88,6 +88,9 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   report->confirmed = report->pruned = report->refined = 0;
   report->probed = report->probe_found = 0;
   report->reassociated = 0;
+  report->fused = 0;
+  report->reclaimed = 0;
+  report->fused_ids.clear();
   report->created_ids.clear();
   report->associated_ids.clear();
   report->confirmed_ids.clear();
@@ -147,11 +150,14 @@ Status LandmarkDatabase::beginFrame(int32_t frame,
   }
   const double d_range =
       options_.tracker.max_disparity_px - options_.tracker.min_disparity_px + 1.0;
+  corner_density_ = static_cast<double>(hyps.points.size()) /
+                    (static_cast<double>(rig_.width_px) * rig_.height_px);
   hypothesis_density_ = static_cast<double>(hyps.hypotheses.size()) /
                         (static_cast<double>(rig_.width_px) * rig_.height_px * d_range);
 
   frame_obs_.clear();
   confirmed_obs_.clear();
+  fusion_index_built_ = false;
   predictAll(T_cl_w_, hyps);
   associate(hyps, report);
   frame_hyps_ = &hyps;
@@ -661,12 +667,161 @@ void LandmarkDatabase::scoreAndLifeCycle(FrameReport* report) {
   }
 }
 
+bool LandmarkDatabase::projectForFusion(uint32_t slot, Eigen::Vector3d* uvd) const {
+  const Eigen::Vector3d p_cl = T_cl_w_ * hot_[slot].p_w_last;
+  return p_cl.z() >= options_.tracker.min_depth_m && projectStereo(rig_, p_cl, uvd);
+}
+
+int64_t LandmarkDatabase::fusionKey(int64_t cu, int64_t cv) {
+  return static_cast<int64_t>((static_cast<uint64_t>(cv) << 32) ^
+                              (static_cast<uint64_t>(cu) & 0xFFFFFFFFu));
+}
+
+void LandmarkDatabase::addToFusionIndex(uint32_t slot, double sigma_u_px, double sigma_v_px) {
+  Eigen::Vector3d uvd;
+  if (!projectForFusion(slot, &uvd)) return;
+  // The chance that the landmark's own corner lies within the fusion radius of its prediction
+  // (Gaussian prediction error), against the chance that some other corner does (this frame's
+  // corner density over the radius' square).
+  const double r = options_.tracker.fuse_radius_px;
+  const double p_own =
+      std::erf(r / (std::sqrt(2.0) * sigma_u_px)) * std::erf(r / (std::sqrt(2.0) * sigma_v_px));
+  const double p_other = std::min(1.0, corner_density_ * 4.0 * r * r);
+  if (p_own < kFusionMinLikelihoodRatio * p_other) return;
+  fusion_index_[fusionKey(static_cast<int64_t>(std::floor(uvd.x() / kFusionCellPx)),
+                          static_cast<int64_t>(std::floor(uvd.y() / kFusionCellPx)))]
+      .push_back({slot,
+                  static_cast<float>(uvd.x()),
+                  static_cast<float>(uvd.y()),
+                  static_cast<float>(uvd.z())});
+}
+
+void LandmarkDatabase::buildFusionIndex() {
+  if (fusion_index_built_) return;
+  fusion_index_built_ = true;
+  fusion_index_.clear();
+  for (size_t i = 0; i < predictions_.size(); ++i) {
+    const Prediction& p = predictions_[i];
+    if (hot_[p.slot].state != LandmarkState::kConfirmed) continue;
+    const float inv_var_u = has_tight_gates_ ? tight_gates_[i].inv_var_u : p.inv_var_u;
+    const float inv_var_v = has_tight_gates_ ? tight_gates_[i].inv_var_v : p.inv_var_v;
+    addToFusionIndex(p.slot, 1.0 / std::sqrt(inv_var_u), 1.0 / std::sqrt(inv_var_v));
+  }
+}
+
+int64_t LandmarkDatabase::nearestConfirmed(const Eigen::Vector3d& uvd,
+                                           int64_t exclude_slot,
+                                           bool unassociated_only) {
+  buildFusionIndex();
+  const double r = options_.tracker.fuse_radius_px;
+  const double rd = options_.tracker.fuse_disparity_px;
+  int64_t best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const int64_t cu0 = static_cast<int64_t>(std::floor((uvd.x() - r) / kFusionCellPx));
+  const int64_t cu1 = static_cast<int64_t>(std::floor((uvd.x() + r) / kFusionCellPx));
+  const int64_t cv0 = static_cast<int64_t>(std::floor((uvd.y() - r) / kFusionCellPx));
+  const int64_t cv1 = static_cast<int64_t>(std::floor((uvd.y() + r) / kFusionCellPx));
+  for (int64_t cv = cv0; cv <= cv1; ++cv) {
+    for (int64_t cu = cu0; cu <= cu1; ++cu) {
+      const auto it = fusion_index_.find(fusionKey(cu, cv));
+      if (it == fusion_index_.end()) continue;
+      for (const FusionEntry& e : it->second) {
+        if (static_cast<int64_t>(e.slot) == exclude_slot ||
+            hot_[e.slot].state != LandmarkState::kConfirmed)
+          continue;
+        // Reclaiming takes landmarks confirmed before this frame and not associated in it (a
+        // slot seeded this frame lies beyond the per-frame flags).
+        if (unassociated_only &&
+            (e.slot >= associated_.size() || associated_[e.slot] || contradicted_[e.slot] ||
+             slots_[e.slot].confirmed_frame >= frame_))
+          continue;
+        const double du = e.u - uvd.x(), dv = e.v - uvd.y(), dd = e.d - uvd.z();
+        if (std::abs(du) > r || std::abs(dv) > r || std::abs(dd) > rd) continue;
+        const double d2 = du * du + dv * dv + dd * dd;
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          best = e.slot;
+        }
+      }
+    }
+  }
+  return best;
+}
+
+int64_t LandmarkDatabase::findFusionPartner(uint32_t slot) {
+  Eigen::Vector3d uvd;
+  if (!projectForFusion(slot, &uvd)) return -1;
+  return nearestConfirmed(uvd, slot, false);
+}
+
+bool LandmarkDatabase::reclaimByConfirmed(const SalientPoint& point,
+                                          const StereoHypotheses& hyps,
+                                          FrameReport* report) {
+  for (uint32_t k = 0; k < point.num_hypotheses; ++k) {
+    const uint32_t j = point.first_hypothesis + k;
+    const DisparityHypothesis& h = hyps.hypotheses[j];
+    const int64_t target =
+        nearestConfirmed(Eigen::Vector3d(point.corner.u_px, point.corner.v_px, h.d_px), -1, true);
+    if (target < 0) continue;
+    const auto slot = static_cast<uint32_t>(target);
+    associated_[slot] = 1;
+    if (!applyObservation(slot, h, point.corner)) return true;  // refused: still not seeded
+    report->hypothesis_landmark_id[j] = slots_[slot].id;
+    report->associated_ids.push_back(slots_[slot].id);
+    ++report->associated;
+    ++report->reclaimed;
+    return true;
+  }
+  return false;
+}
+
+void LandmarkDatabase::fuseInto(uint32_t candidate, uint32_t target, FrameReport* report) {
+  Landmark& c = slots_[candidate];
+  Landmark& t = slots_[target];
+  // Slots allocated this frame lie beyond the per-frame flags: seeded here, so measured here.
+  const auto seen_now = [&](uint32_t s) {
+    return s >= associated_.size() || (associated_[s] != 0 && contradicted_[s] == 0);
+  };
+  if ((seen_now(candidate) || c.first_frame == frame_) && !seen_now(target)) {
+    // The candidate's measurement of this frame is the confirmed landmark's.
+    associated_[target] = 1;
+    t.consecutive_misses = 0;
+    t.last_seen_frame = frame_;
+    t.path_at_last_seen_m = path_m_;
+    t.turn_at_last_seen_rad = turn_rad_;
+    ++t.n_obs;
+    report->associated_ids.push_back(t.id);
+    for (uint64_t& id : report->hypothesis_landmark_id) {
+      if (id == c.id) id = t.id;
+    }
+  }
+  ++report->fused;
+  report->fused_ids.emplace_back(c.id, t.id);
+  releaseSlot(candidate, report);
+}
+
 void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   Landmark& l = slots_[slot];
   policy_->rivalsToRetire(slot, &rivals_);
   for (uint32_t r : rivals_) {
     if (slots_[r].state == LandmarkState::kCandidate) releaseSlot(r, report);
   }
+  bool refined = false;
+  if (options_.refine.enabled && l.observations.size() >= 2) {
+    RefineOptions ro;
+    ro.disparity_sigma_px = options_.tracker.disparity_sigma_px;
+    ro.huber = options_.refine.huber;
+    ro.noise_model = options_.tracker;
+    refined = refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk;
+  }
+  if (options_.tracker.fuse_radius_px > 0.0) {
+    const int64_t partner = findFusionPartner(slot);
+    if (partner >= 0) {
+      fuseInto(slot, static_cast<uint32_t>(partner), report);
+      return;
+    }
+  }
+  report->refined += refined ? 1 : 0;
   policy_->onConfirmed(slot);
   l.state = LandmarkState::kConfirmed;
   hot_[slot].state = LandmarkState::kConfirmed;
@@ -675,20 +830,16 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   ++num_confirmed_;
   ++report->confirmed;
   report->confirmed_ids.push_back(l.id);
-  if (options_.refine.enabled && l.observations.size() >= 2) {
-    RefineOptions ro;
-    ro.disparity_sigma_px = options_.tracker.disparity_sigma_px;
-    ro.huber = options_.refine.huber;
-    ro.noise_model = options_.tracker;
-    if (refineLandmark(rig_, T_b_cl_, l.observations, ro, &l.p_w) == RefineResult::kOk)
-      ++report->refined;
-  }
   // Confirmed landmarks are not re-refined (see RefinementOptions::enabled), so their observations
   // are not needed any more: about 1 kB per landmark, and no per-hit copying.
   std::vector<Observation>().swap(l.observations);
   if (map_frame_predictions_) {
     l.p_w_last = l.p_w;
     hot_[slot].p_w_last = l.p_w;
+  }
+  // Just measured: its prediction error in this frame is the corner noise.
+  if (fusion_index_built_) {
+    addToFusionIndex(slot, options_.tracker.pixel_sigma_px, options_.tracker.pixel_sigma_px);
   }
 }
 
@@ -702,6 +853,9 @@ void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
       if (report->hypothesis_landmark_id[point.first_hypothesis + k] != 0) explained = true;
     }
     if (explained) continue;  // tracked by an existing landmark: not seeded again
+    // A confirmed landmark predicted on this corner (within the fusion radius) that was not
+    // associated (its gate held several corners) takes it: the map already has this point.
+    if (options_.tracker.fuse_radius_px > 0.0 && reclaimByConfirmed(point, hyps, report)) continue;
     if (!options_.tracker.seed_depth_edges &&
         hyps.hypotheses[point.first_hypothesis].window_shift_px != 0) {
       continue;  // best match from a shifted window: the corner is on a depth edge

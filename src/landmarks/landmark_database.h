@@ -14,6 +14,8 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "common/features.h"
@@ -59,6 +61,16 @@ struct FrameReport {
   /// Confirmed landmarks associated by the second pass with the corrected pose
   /// (LandmarkDatabase::correctFramePose).
   int reassociated = 0;
+  /// Candidates that were to be confirmed where a confirmed landmark already is (within
+  /// TrackerOptions::fuse_radius_px and fuse_disparity_px in this frame): the same point, so the
+  /// candidate was dropped (in removed_ids) and its measurement of this frame, if any, given to
+  /// the confirmed landmark, instead of a second confirmation.
+  int fused = 0;
+  /// Corners not seeded because a confirmed landmark that was not associated is predicted on
+  /// them (within the fusion radius): that landmark takes the corner.
+  int reclaimed = 0;
+  /// (dropped candidate id, confirmed landmark id) of each fusion.
+  std::vector<std::pair<uint64_t, uint64_t>> fused_ids;
   /// Per input hypothesis: id of the landmark it was associated with or seeded into, or 0 (ids
   /// start at 1). An associated landmark may still have been removed later in the same update
   /// (removed_ids): find() then returns nullptr.
@@ -199,6 +211,30 @@ class LandmarkDatabase final : public AnchorPoses {
   bool applyObservation(uint32_t slot, const DisparityHypothesis& h, const Corner& c);
   void scoreAndLifeCycle(FrameReport* report);
   void confirm(uint32_t slot, FrameReport* report);
+  /// Fusion at confirmation (TrackerOptions::fuse_radius_px): the confirmed landmark nearest to
+  /// the candidate in this frame's image within the fusion radius, or -1. The index of this
+  /// frame's confirmed landmarks by pixel is built at the first call of a frame.
+  int64_t findFusionPartner(uint32_t slot);
+  /// The confirmed landmark predicted nearest to (u, v, d) within the fusion radius, or -1.
+  int64_t nearestConfirmed(const Eigen::Vector3d& uvd,
+                           int64_t exclude_slot,
+                           bool unassociated_only);
+  void buildFusionIndex();
+  /// At seeding: a confirmed landmark not associated this frame whose prediction lies within the
+  /// fusion radius of one of the point's hypotheses takes that hypothesis; true when one did (the
+  /// point is then not seeded).
+  bool reclaimByConfirmed(const SalientPoint& point,
+                          const StereoHypotheses& hyps,
+                          FrameReport* report);
+  void fuseInto(uint32_t candidate, uint32_t target, FrameReport* report);
+  bool projectForFusion(uint32_t slot, Eigen::Vector3d* uvd) const;
+  /// Indexes a confirmed landmark whose prediction error (sigma_u_px, sigma_v_px) is small
+  /// enough that a corner within the fusion radius is more likely its own than another
+  /// (kFusionMinLikelihoodRatio); the others are not fused.
+  void addToFusionIndex(uint32_t slot, double sigma_u_px, double sigma_v_px);
+  static constexpr double kFusionMinLikelihoodRatio = 1.0;
+  static int64_t fusionKey(int64_t cu, int64_t cv);
+  static constexpr double kFusionCellPx = 4.0;
   void seed(const StereoHypotheses& hyps, FrameReport* report);
   void enforceCaps(FrameReport* report);
 
@@ -253,6 +289,12 @@ class LandmarkDatabase final : public AnchorPoses {
   };
   std::vector<GridEntry> grid_uvd_;
   std::vector<uint32_t> rivals_;  // confirm()'s buffer
+  struct FusionEntry {
+    uint32_t slot;
+    float u, v, d;
+  };
+  std::unordered_map<int64_t, std::vector<FusionEntry>> fusion_index_;
+  bool fusion_index_built_ = false;
   /// This frame's applied observations: slot and measurement (correctFramePose re-places them).
   struct FrameObservation {
     uint32_t slot;
@@ -261,6 +303,7 @@ class LandmarkDatabase final : public AnchorPoses {
   std::vector<FrameObservation> frame_obs_;
   std::vector<ConfirmedObservation> confirmed_obs_;
   double hypothesis_density_ = 0.0;  // hypotheses per pixel^2 per disparity pixel
+  double corner_density_ = 0.0;      // salient points per pixel^2, this frame
   /// setPredictionSigma(); the gates of confirmed predictions with it, parallel to predictions_
   /// (used only when has_tight_gates_); the previous frame's confirmed associations.
   struct Gate {

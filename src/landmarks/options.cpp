@@ -92,8 +92,12 @@ Status TrackerOptions::validate() const {
       .lowOpen("gate_chi2", gate_chi2, 0.0, 1000.0, "in (0, 1000]")
       .closed("visibility_border_px", visibility_border_px, 0.0, 10000.0, "in [0, 10000]")
       .lowOpen("min_depth_m", min_depth_m, 0.0, 1000.0, "in (0, 1000]")
-      .closed("min_disparity_px", min_disparity_px, 0.0, 10000.0, "in [0, 10000]");
+      .closed("min_disparity_px", min_disparity_px, 0.0, 10000.0, "in [0, 10000]")
+      .closed("fuse_disparity_px", fuse_disparity_px, 0.0, 100.0, "in [0, 100]");
   if (Status s = c.status(); !s) return s;
+  // Below Harris' 2 px minimum corner spacing (TrackerOptions::fuse_radius_px).
+  if (!(fuse_radius_px >= 0.0 && fuse_radius_px < 2.0))
+    return bad("tracker.", "fuse_radius_px", fuse_radius_px, "in [0, 2)");
   if (!(max_disparity_px > min_disparity_px && max_disparity_px <= 10000.0))
     return bad("tracker.", "max_disparity_px", max_disparity_px, "> min_disparity_px, <= 10000");
   // Caps: the tracker reserves and sorts arrays of this size (about 1.2 kB per landmark).

@@ -77,6 +77,17 @@ struct TrackerOptions {
   /// slides along the occluding contour as the robot moves) and METRICS.md leaves it without
   /// ground truth.
   bool seed_depth_edges = false;
+  /// Fusion (docs/landmarks.md#fusion): a confirmed landmark predicted within this many pixels
+  /// (in u and in v) of a corner is that corner's landmark, met again: at seeding it takes the
+  /// corner (even when its gate held other corners), and a candidate about to be confirmed
+  /// there is dropped instead of confirmed a second time [px]. Only landmarks whose prediction
+  /// error makes their own corner likelier than another within the radius take part. Below 2:
+  /// Harris' 3x3 non-maximum suppression keeps two corners of one frame 2 px apart. 0 (the
+  /// default) turns fusion off: with it on (1.5) duplicates halve, but the slip search, whose
+  /// thresholds were set with duplicates in the reference, detects fewer slips
+  /// (docs/experiments/2026-12-03-landmark-fusion.md).
+  double fuse_radius_px = 0.0;
+  double fuse_disparity_px = 1.5;
 
   /// Ranges as in the config's comments; ints bounded so that counters and capacities cannot
   /// overflow. Messages start with "landmarks.tracker.".

@@ -76,7 +76,7 @@ static_assert(fieldCount<frontend::FrontendOptions>() == 4,
 static_assert(fieldCount<landmarks::LandmarkOptions>() == 7,
               "LandmarkOptions gained or lost a field: map it in visitLandmarks (see above)");
 // 15 fields, two of which (min/max_disparity_px) clampToRig sets from frontend.sad.
-static_assert(fieldCount<landmarks::TrackerOptions>() == 15,
+static_assert(fieldCount<landmarks::TrackerOptions>() == 17,
               "TrackerOptions gained or lost a field: map it in visitTracker (see above)");
 static_assert(fieldCount<OdometryNoise>() == 5,
               "OdometryNoise gained or lost a field: map it in visitOdometryNoise (see above)");
@@ -206,6 +206,10 @@ void visitTracker(O& o, V& v) {
                     "observations kept per landmark for refinement [-], in [2, 1000]");
   TWOCAM_CONFIG_KEY(seed_depth_edges,
                     "seed candidates from shifted-window (depth edge) matches [bool]");
+  TWOCAM_CONFIG_KEY(fuse_radius_px,
+                    "fusion: a confirmed landmark predicted this near a corner is its own [px], "
+                    "in [0, 2); 0 = off");
+  TWOCAM_CONFIG_KEY(fuse_disparity_px, "disparity tolerance of that fusion test [px], in [0, 100]");
   v.section("odometry_noise",
             "odometry noise model of the gates (common/odometry_noise.h)",
             [&](V& s) { visitOdometryNoise(o.odometry_noise, s); });

@@ -104,7 +104,9 @@ Status Run::execute(const FrameSource& next,
                          pipe_.database().numCandidates(),
                          pipe_.database().numConfirmed(),
                          pipe_.report().confirmed,
-                         pipe_.report().reassociated});
+                         pipe_.report().reassociated,
+                         pipe_.report().fused,
+                         pipe_.report().reclaimed});
   }
   s.wall_ms = wall.elapsedMs();
   if (!read_status) return read_status;

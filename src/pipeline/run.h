@@ -45,6 +45,8 @@ struct FrameRecord {
   int confirmed = 0;
   int confirmations = 0;  ///< candidates confirmed in this frame
   int reassociated = 0;   ///< confirmed landmarks found by the second association pass
+  int fused = 0;          ///< candidates fused into a confirmed landmark instead of confirmed
+  int reclaimed = 0;      ///< corners taken by a confirmed landmark at seeding (not seeded)
 };
 
 struct RunSummary {

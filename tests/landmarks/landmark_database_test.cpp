@@ -31,6 +31,11 @@ struct RunOutcome {
   int wrong_random = 0;
   /// Confirmed landmarks whose anchor's world point already has another confirmed landmark.
   int duplicates = 0;
+  /// World points with at least one correct confirmed landmark.
+  int distinct_correct = 0;
+  /// Candidates fused into a confirmed landmark at confirmation, corners reclaimed at seeding.
+  int fused = 0;
+  int reclaimed = 0;
 };
 
 /// How runSynthetic drives the database as a localising pipeline would: each frame predicted
@@ -53,6 +58,7 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
   std::map<uint64_t, std::pair<int, int32_t>> anchor_truth;  // id -> (kind, world point)
   SyntheticFrame frame;
   FrameReport report;
+  int fused = 0, reclaimed = 0;
   for (int k = 0; k < frames; ++k) {
     stream.next(&frame);
     if (localized == nullptr) {
@@ -71,6 +77,8 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
       db.finishFrame();
       if (localized->reassociated != nullptr) *localized->reassociated += report.reassociated;
     }
+    fused += report.fused;
+    reclaimed += report.reclaimed;
     for (uint64_t id : report.removed_ids) anchor_truth.erase(id);
     for (size_t i = 0; i < report.created_ids.size(); ++i) {
       const uint32_t j = report.created_hypotheses[i];
@@ -78,7 +86,10 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
     }
   }
   RunOutcome out;
+  out.fused = fused;
+  out.reclaimed = reclaimed;
   std::map<int32_t, int> confirmed_per_point;
+  std::map<int32_t, int> correct_per_point;
   for (const Landmark& l : db.landmarks()) {
     if (l.state == LandmarkState::kFree) continue;
     ++out.final_slots;
@@ -91,6 +102,7 @@ RunOutcome runSynthetic(const SyntheticStreamOptions& stream_options,
     if (it->second.first == 2) ++out.wrong_random;
     if (it->second.first != 0) continue;
     ++out.correct;
+    if (correct_per_point[it->second.second]++ == 0) ++out.distinct_correct;
     // The odometry world frame drifts from the true one; compare in the anchor camera instead.
     const Eigen::Vector3d p_anchor =
         cameraPoseInWorld(l.anchor.odom_pose, rig.T_b_cl).inverse() * l.p_w;
@@ -517,6 +529,43 @@ TEST(LandmarkDatabase, GatesFromTheEstimateAndReassociationKeepRevisitsFromDupli
   EXPECT_GE(static_cast<double>(offset.correct) / std::max(1, offset.confirmed), kMinPrecision);
 }
 
+TEST(LandmarkDatabase, FusionKeepsOneLandmarkPerPoint) {
+  // Fusion (TrackerOptions::fuse_radius_px): a corner that a confirmed landmark is predicted on
+  // is that landmark's, even when its gate held other corners too, and a candidate confirmed
+  // where a confirmed landmark already is, is that landmark. On the drifting stream, localised
+  // with the prediction 3 cm off (the first pass misses, so candidates are seeded on landmarks'
+  // corners), fusion must cut the duplicates without losing a point or precision.
+  const SyntheticStreamOptions so = driftingStream();
+  constexpr int kFrames = 1000;
+  Localized off;
+  off.prediction_offset_m = 0.03;
+  LandmarkOptions without;
+  without.tracker.fuse_radius_px = 0.0;
+  LandmarkOptions with = without;
+  with.tracker.fuse_radius_px = 1.5;
+  const RunOutcome a = runSynthetic(so, without, kFrames, &off);
+  const RunOutcome b = runSynthetic(so, with, kFrames, &off);
+  std::printf(
+      "fusion off: %d confirmed, %d duplicates, %d distinct correct; on: %d confirmed, %d "
+      "duplicates, %d distinct correct (%d fused, %d reclaimed)\n",
+      a.confirmed,
+      a.duplicates,
+      a.distinct_correct,
+      b.confirmed,
+      b.duplicates,
+      b.distinct_correct,
+      b.fused,
+      b.reclaimed);
+  ASSERT_GT(a.confirmed, 100);
+  EXPECT_EQ(a.fused + a.reclaimed, 0);
+  EXPECT_GT(b.fused + b.reclaimed, 0);
+  EXPECT_LE(b.duplicates, a.duplicates);
+  // Points kept: fusion drops only second landmarks of a point (kDistinctLossMax of noise).
+  constexpr double kDistinctLossMax = 0.02;
+  EXPECT_GE(b.distinct_correct, (1.0 - kDistinctLossMax) * a.distinct_correct);
+  EXPECT_GE(static_cast<double>(b.correct) / std::max(1, b.confirmed), kMinPrecision);
+}
+
 TEST(LandmarkDatabase, ConfirmedCapBoundsMemoryUnderDrift) {
   SyntheticStreamOptions so;
   so.seed = 5;
@@ -752,6 +801,61 @@ TEST(LandmarkDatabase, ReportsIdsThatFindLooksUp) {
   }
   EXPECT_EQ(db.find(0), nullptr);
   for (uint64_t id : report.removed_ids) EXPECT_EQ(db.find(id), nullptr);
+}
+
+TEST(LandmarkDatabase, ConfirmedLandmarkReclaimsItsCornerFromAnAmbiguousGate) {
+  // A confirmed landmark whose gate holds two corners is not associated by the gate; the corner
+  // exactly at its prediction (well inside the 2 px Harris spacing) is still its own, so it is
+  // taken by the landmark instead of being seeded as a new candidate. Without fusion it is seeded.
+  for (const double radius : {0.0, 1.5}) {
+    SCOPED_TRACE(radius);
+    LandmarkOptions options;
+    options.tracker.fuse_radius_px = radius;
+    options.consistency.stability_evidence = 5.0;  // confirm the first landmark quickly
+    const StereoRig rig = SyntheticStream::defaultRig();
+    LandmarkDatabase db(rig, options);
+    const Eigen::Vector3d uvd(320.0, 240.0, 20.0);
+    FrameReport report;
+    Pose2 pose;
+    int32_t frame = 0;
+    uint64_t id = 0;
+    for (; frame < 40 && db.numConfirmed() == 0; ++frame) {
+      pose.x_m = 0.02 * frame;
+      const Eigen::Isometry3d T_w_cl = cameraPoseInWorld(pose, rig.T_b_cl);
+      // The same world point each frame: project it from this pose.
+      static const Eigen::Vector3d p_w = cameraPoseInWorld(Pose2{}, rig.T_b_cl) *
+                                         *triangulateRectified(rig, uvd.head<2>(), uvd.z());
+      Eigen::Vector3d uvd_k;
+      ASSERT_TRUE(projectStereo(rig, T_w_cl.inverse() * p_w, &uvd_k));
+      ASSERT_TRUE(db.update(frame, frame * 66'666'667LL, pose, lonePoint(uvd_k), &report).isOk());
+    }
+    ASSERT_EQ(db.numConfirmed(), 1) << "the lone point was not confirmed";
+    for (const Landmark& l : db.landmarks()) {
+      if (l.state == LandmarkState::kConfirmed) id = l.id;
+    }
+    const Landmark* l = db.find(id);
+    ASSERT_NE(l, nullptr);
+    pose.x_m = 0.02 * frame;
+    Eigen::Vector3d pred;
+    ASSERT_TRUE(projectStereo(rig, cameraPoseInWorld(pose, rig.T_b_cl).inverse() * l->p_w, &pred));
+    // Two corners in the gate: one at the prediction, one 3 px to the side.
+    StereoHypotheses hyps = lonePoint(pred);
+    StereoHypotheses other = lonePoint(pred + Eigen::Vector3d(3.0, 0.0, 0.0));
+    other.points[0].first_hypothesis = 1;
+    other.hypotheses[0].point_index = 1;
+    hyps.points.push_back(other.points[0]);
+    hyps.hypotheses.push_back(other.hypotheses[0]);
+    ASSERT_TRUE(db.update(frame, frame * 66'666'667LL, pose, hyps, &report).isOk());
+    if (radius > 0.0) {
+      EXPECT_EQ(report.reclaimed, 1);
+      EXPECT_EQ(report.hypothesis_landmark_id[0], id);
+      EXPECT_EQ(db.find(id)->last_seen_frame, frame);
+    } else {
+      EXPECT_EQ(report.reclaimed, 0);
+      EXPECT_NE(report.hypothesis_landmark_id[0], id);
+      EXPECT_NE(report.hypothesis_landmark_id[0], 0u) << "the corner should have been seeded";
+    }
+  }
 }
 
 }  // namespace

@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 constexpr int kHarrisKeys = 12;      // HarrisOptions::simd comes from frontend.simd
 constexpr int kSadKeys = 16;         // SalientSadOptions::simd comes from frontend.simd
 constexpr int kFrontendOwnKeys = 2;  // source, simd
-constexpr int kLandmarkKeys = 51;    // policy + tracker 12 + odometry_noise 5 + refine 2 +
+constexpr int kLandmarkKeys = 53;    // policy + tracker 14 + odometry_noise 5 + refine 2 +
                                      // consistency 23 + seen_count 2 + culling 3 + inlier_ratio 3
 constexpr int kMappingKeys = 8;
 // localization: mode, estimate_gates, update (9), slip (2), pnp (2).
