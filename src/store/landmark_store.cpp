@@ -292,6 +292,11 @@ Status LandmarkStore::open(const std::string& path,
     if (!parent.empty() && !fs::is_directory(parent, ec)) {
       return Status::error("map '" + path + "': folder '" + parent.string() + "' does not exist");
     }
+    // A log without its database would be replayed into the new file: refuse.
+    if (fs::exists(path + "-wal", ec)) {
+      return Status::error("map '" + path + "' does not exist but its write-ahead log '" + path +
+                           "-wal' does: restore the map or remove the log");
+    }
     // Built under a temporary name and renamed into place: a process killed while creating
     // leaves no half-made store at `path`.
     if (Status st = createStore(path); !st) return st;

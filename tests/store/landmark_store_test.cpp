@@ -438,6 +438,11 @@ TEST(LandmarkStore, MissingPathIsAnErrorReadOnlyAndCreatedOtherwise) {
   EXPECT_FALSE(fs::exists(dir + "/absent.db"));
   st = LandmarkStore::open(dir + "/no_folder/map.db", OpenMode::kCreateOrExtend, &store);
   EXPECT_NE(st.message().find("does not exist"), std::string::npos) << st.message();
+  std::ofstream(dir + "/orphan.db-wal") << "log of a deleted map";
+  st = LandmarkStore::open(dir + "/orphan.db", OpenMode::kCreateOrExtend, &store);
+  EXPECT_NE(st.message().find("write-ahead log"), std::string::npos) << st.message();
+  EXPECT_FALSE(fs::exists(dir + "/orphan.db"));
+  fs::remove(dir + "/orphan.db-wal");
   st = LandmarkStore::open(dir + "/new.db", OpenMode::kCreateOrExtend, &store);
   ASSERT_TRUE(st.isOk()) << st.message();
   EXPECT_TRUE(store->integrityCheck().isOk());

@@ -1,0 +1,224 @@
+/// The landmark store (store/landmark_store.h) against the questions of issue 25: what one
+/// transaction per frame costs against one per 10 frames (and synchronous=NORMAL against FULL),
+/// and how fast the R*Tree answers a working-set query (r = 6 m) in a map of 100,000 landmarks.
+///
+/// Run on one core: taskset -c 1 store_bench --benchmark_repetitions=5
+/// --benchmark_report_aggregates_only=true. The stores live in a folder under
+/// $TMPDIR (or /tmp), removed at the end; on this machine /tmp is on the same disk as /work.
+///
+/// A frame's batch: one keyframe, 60 upserted landmarks with 32-byte descriptors (50 new, 10 of
+/// the previous frame seen again) and 5 removals. Batches are built outside the timed region
+/// (manual timing around writeBatch() only); items_per_second counts frames.
+
+#include <benchmark/benchmark.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "store/landmark_store.h"
+
+namespace twocam::bench {
+namespace {
+
+namespace fs = std::filesystem;
+using store::LandmarkStore;
+using store::OpenMode;
+using store::StoreBatch;
+using store::StoredKeyframe;
+using store::StoredLandmark;
+
+constexpr uint64_t kStoreBenchSeed = 20261203;
+constexpr int kNewPerFrame = 50;
+constexpr int kSeenAgainPerFrame = 10;
+constexpr int kRemovedPerFrame = 5;
+constexpr size_t kDescriptorBytes = 32;
+/// The query map: 100,000 landmarks uniform in 200 m x 200 m x 3 m (about 280 within 6 m).
+constexpr int kQueryMapLandmarks = 100000;
+constexpr double kQueryMapHalfWidthM = 100.0;
+constexpr double kQueryMapHeightM = 3.0;
+constexpr double kQueryRadiusM = 6.0;
+
+std::string benchDir() {
+  const fs::path dir =
+      fs::temp_directory_path() / ("twocam_store_bench_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+StoredLandmark makeLandmark(std::mt19937_64& rng, uint64_t id, int32_t session, int32_t frame) {
+  std::uniform_real_distribution<double> xy(-kQueryMapHalfWidthM, kQueryMapHalfWidthM),
+      z(0.0, kQueryMapHeightM);
+  std::uniform_int_distribution<int> byte(0, 255);
+  StoredLandmark l;
+  l.id = id;
+  l.p_m = {xy(rng), xy(rng), z(rng)};
+  l.cov_m = Eigen::Matrix3d::Identity() * 1e-4;
+  l.confidence = 0.9;
+  l.observations = 5;
+  l.session = session;
+  l.first_seen_frame = frame;
+  l.last_seen_frame = frame;
+  l.first_seen_t_ns = frame * 50'000'000LL;
+  l.last_seen_t_ns = l.first_seen_t_ns;
+  l.descriptor_kind = 1;
+  l.descriptor.resize(kDescriptorBytes);
+  for (uint8_t& b : l.descriptor) b = static_cast<uint8_t>(byte(rng));
+  return l;
+}
+
+/// Frame `frame`'s writes appended to *batch (ids frame * 64 + i).
+void appendFrame(std::mt19937_64& rng, int32_t session, int32_t frame, StoreBatch* batch) {
+  const uint64_t base = static_cast<uint64_t>(frame) * 64;
+  for (int i = 0; i < kNewPerFrame; ++i) {
+    batch->upserts.push_back(makeLandmark(rng, base + i, session, frame));
+  }
+  if (frame > 0) {
+    const uint64_t prev = base - 64;
+    for (int i = 0; i < kSeenAgainPerFrame; ++i) {
+      batch->upserts.push_back(makeLandmark(rng, prev + i, session, frame));
+    }
+    for (int i = 0; i < kRemovedPerFrame; ++i)
+      batch->removed.push_back(prev + kNewPerFrame - 1 - i);
+  }
+  StoredKeyframe k;
+  k.session = session;
+  k.frame = frame;
+  k.t_ns = frame * 50'000'000LL;
+  batch->keyframes.push_back(k);
+}
+
+/// Args: frames per transaction, synchronous FULL (1) or NORMAL (0).
+void BM_WriteFrames(benchmark::State& state) {
+  const int frames_per_transaction = static_cast<int>(state.range(0));
+  store::LandmarkStoreOptions options;
+  options.sync_every_commit = state.range(1) != 0;
+  const std::string dir = benchDir();
+  const std::string path = dir + "/write.db";
+  fs::remove(path);
+  std::unique_ptr<LandmarkStore> map;
+  if (!LandmarkStore::open(path, OpenMode::kCreateOrExtend, &map, options).isOk()) {
+    state.SkipWithError("cannot create the store");
+    return;
+  }
+  int32_t session = 0;
+  if (!map->beginSession("rig", "config", "bench", &session).isOk()) {
+    state.SkipWithError("cannot begin a session");
+    return;
+  }
+  std::mt19937_64 rng(kStoreBenchSeed);
+  int32_t frame = 0;
+  for (auto _ : state) {
+    StoreBatch batch;
+    for (int i = 0; i < frames_per_transaction; ++i) appendFrame(rng, session, frame++, &batch);
+    const auto start = std::chrono::steady_clock::now();
+    const Status st = map->writeBatch(batch);
+    const auto stop = std::chrono::steady_clock::now();
+    if (!st) {
+      state.SkipWithError(st.message().c_str());
+      break;
+    }
+    state.SetIterationTime(std::chrono::duration<double>(stop - start).count());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(frame));
+  state.counters["frames_per_txn"] = frames_per_transaction;
+  map.reset();
+  for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(path + suffix);
+}
+BENCHMARK(BM_WriteFrames)
+    ->ArgNames({"frames_per_txn", "sync_full"})
+    ->Args({1, 0})
+    ->Args({10, 0})
+    ->Args({1, 1})
+    ->Args({10, 1})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+
+/// The 100,000-landmark map, built once per process.
+const std::string& queryMap() {
+  static const std::string path = [] {
+    const std::string p = benchDir() + "/query.db";
+    fs::remove(p);
+    std::unique_ptr<LandmarkStore> map;
+    if (!LandmarkStore::open(p, OpenMode::kCreateOrExtend, &map).isOk()) return std::string();
+    int32_t session = 0;
+    if (!map->beginSession("rig", "config", "bench", &session).isOk()) return std::string();
+    std::mt19937_64 rng(kStoreBenchSeed + 1);
+    StoreBatch batch;
+    for (int i = 0; i < kQueryMapLandmarks; ++i) {
+      batch.upserts.push_back(makeLandmark(rng, 1 + i, session, i / 50));
+    }
+    if (!map->writeBatch(batch).isOk()) return std::string();
+    return p;
+  }();
+  return path;
+}
+
+void BM_QueryRadius(benchmark::State& state) {
+  const std::string& path = queryMap();
+  std::unique_ptr<LandmarkStore> map;
+  if (path.empty() || !LandmarkStore::open(path, OpenMode::kReadOnly, &map).isOk()) {
+    state.SkipWithError("no query map");
+    return;
+  }
+  std::mt19937_64 rng(kStoreBenchSeed + 2);
+  std::uniform_real_distribution<double> xy(-kQueryMapHalfWidthM, kQueryMapHalfWidthM);
+  std::vector<Eigen::Vector3d> centers(1024);
+  for (auto& c : centers) c = {xy(rng), xy(rng), kQueryMapHeightM / 2};
+  std::vector<StoredLandmark> found;
+  size_t i = 0, total = 0;
+  for (auto _ : state) {
+    if (!map->queryRadius(centers[i++ % centers.size()], kQueryRadiusM, &found).isOk()) {
+      state.SkipWithError("query failed");
+      break;
+    }
+    total += found.size();
+    benchmark::DoNotOptimize(found.data());
+  }
+  state.counters["landmarks_found"] =
+      benchmark::Counter(static_cast<double>(total), benchmark::Counter::kAvgIterations);
+}
+BENCHMARK(BM_QueryRadius)->Unit(benchmark::kMicrosecond);
+
+/// Opening the 100,000-landmark map read-only (header checks + PRAGMA quick_check) and loading
+/// every landmark: the "load" part of the issue's "open and relocalise within 1 s".
+void BM_OpenAndLoadAll(benchmark::State& state) {
+  const std::string& path = queryMap();
+  const bool load = state.range(0) != 0;
+  std::vector<StoredLandmark> all;
+  for (auto _ : state) {
+    std::unique_ptr<LandmarkStore> map;
+    if (path.empty() || !LandmarkStore::open(path, OpenMode::kReadOnly, &map).isOk()) {
+      state.SkipWithError("cannot open the query map");
+      break;
+    }
+    if (load && !map->loadAll(&all).isOk()) {
+      state.SkipWithError("loadAll failed");
+      break;
+    }
+    benchmark::DoNotOptimize(all.data());
+  }
+  state.counters["landmarks"] = static_cast<double>(all.size());
+}
+BENCHMARK(BM_OpenAndLoadAll)->ArgName("load_all")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace twocam::bench
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  // The stores of this process.
+  std::error_code ec;
+  std::filesystem::remove_all(
+      std::filesystem::temp_directory_path() / ("twocam_store_bench_" + std::to_string(getpid())),
+      ec);
+  return 0;
+}
