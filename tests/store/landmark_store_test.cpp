@@ -637,9 +637,12 @@ StoreBatch crashBatch(int32_t frame, int32_t session) {
 
 /// Child process: continue the store from `first_frame`, reporting each committed frame on `fd`.
 /// Only ever leaves through _exit (no atexit handlers, no sanitizer reports from the child).
-[[noreturn]] void crashWriter(const std::string& path, int32_t first_frame, int fd) {
+[[noreturn]] void crashWriter(const std::string& path,
+                              const LandmarkStoreOptions& options,
+                              int32_t first_frame,
+                              int fd) {
   std::unique_ptr<LandmarkStore> store;
-  if (!LandmarkStore::open(path, OpenMode::kCreateOrExtend, &store).isOk()) _exit(2);
+  if (!LandmarkStore::open(path, OpenMode::kCreateOrExtend, &store, options).isOk()) _exit(2);
   int32_t session = 0;
   if (!store->beginSession("rig", "config", "crash.rawlog", &session).isOk()) _exit(3);
   for (int32_t frame = first_frame; frame < first_frame + 100000; ++frame) {
@@ -660,11 +663,15 @@ std::map<uint64_t, int32_t> expectedAfter(int32_t last_frame) {
   return state;
 }
 
-TEST(LandmarkStoreCrash, SurvivesSigkillAtTwentySeededMoments) {
+/// 20 writers, each killed with SIGKILL at a seeded moment (after 0-30 reported commits plus
+/// 0-3 ms), each continuing the store the previous one left.
+void runCrashTrials(const std::string& name, bool sync_every_commit) {
+  LandmarkStoreOptions options;
+  options.sync_every_commit = sync_every_commit;
   constexpr int kTrials = 20;
   constexpr int kMaxReportsBeforeKill = 30;
   constexpr int kMaxExtraDelayUs = 3000;
-  const std::string path = test::makeTempDir("store_crash") + "/map.db";
+  const std::string path = test::makeTempDir(name) + "/map.db";
   std::mt19937 rng(kSeed);
   std::uniform_int_distribution<int> reports_before_kill(0, kMaxReportsBeforeKill);
   std::uniform_int_distribution<int> extra_delay_us(0, kMaxExtraDelayUs);
@@ -679,7 +686,7 @@ TEST(LandmarkStoreCrash, SurvivesSigkillAtTwentySeededMoments) {
     ASSERT_GE(pid, 0);
     if (pid == 0) {
       close(fds[0]);
-      crashWriter(path, next_frame, fds[1]);
+      crashWriter(path, options, next_frame, fds[1]);
     }
     close(fds[1]);
     std::vector<int32_t> reported;
@@ -754,6 +761,14 @@ TEST(LandmarkStoreCrash, SurvivesSigkillAtTwentySeededMoments) {
   const int32_t session = beginOrDie(*store);
   ASSERT_TRUE(store->writeBatch(crashBatch(next_frame, session)).isOk());
   EXPECT_TRUE(store->integrityCheck().isOk());
+}
+
+TEST(LandmarkStoreCrash, SurvivesSigkillAtTwentySeededMomentsSynchronousFull) {
+  runCrashTrials("store_crash_full", true);
+}
+
+TEST(LandmarkStoreCrash, SurvivesSigkillAtTwentySeededMomentsSynchronousNormal) {
+  runCrashTrials("store_crash_normal", false);
 }
 
 }  // namespace
