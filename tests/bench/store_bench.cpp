@@ -141,7 +141,7 @@ BENCHMARK(BM_WriteFrames)
 
 /// The 100,000-landmark map, built once per process.
 const std::string& queryMap() {
-  static const std::string path = [] {
+  static const std::string kPath = [] {
     const std::string p = benchDir() + "/query.db";
     fs::remove(p);
     std::unique_ptr<LandmarkStore> map;
@@ -156,7 +156,7 @@ const std::string& queryMap() {
     if (!map->writeBatch(batch).isOk()) return std::string();
     return p;
   }();
-  return path;
+  return kPath;
 }
 
 void BM_QueryRadius(benchmark::State& state) {

@@ -690,7 +690,7 @@ void runCrashTrials(const std::string& name, bool sync_every_commit) {
     }
     close(fds[1]);
     std::vector<int32_t> reported;
-    const auto readReports = [&](size_t until) {
+    const auto read_reports = [&](size_t until) {
       while (reported.size() < until) {
         int32_t frame = 0;
         const ssize_t n = read(fds[0], &frame, sizeof(frame));
@@ -699,7 +699,7 @@ void runCrashTrials(const std::string& name, bool sync_every_commit) {
       }
       return true;
     };
-    const bool alive = readReports(static_cast<size_t>(wait_reports));
+    const bool alive = read_reports(static_cast<size_t>(wait_reports));
     usleep(static_cast<useconds_t>(delay_us));
     kill(pid, SIGKILL);
     int wstatus = 0;
@@ -707,7 +707,7 @@ void runCrashTrials(const std::string& name, bool sync_every_commit) {
     ASSERT_TRUE(alive && WIFSIGNALED(wstatus) && WTERMSIG(wstatus) == SIGKILL)
         << "trial " << trial << ": the writer stopped by itself, exit status "
         << (WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1);
-    readReports(SIZE_MAX);  // whatever it reported before the kill
+    read_reports(SIZE_MAX);  // whatever it reported before the kill
     close(fds[0]);
     const int32_t last_reported = reported.empty() ? next_frame - 1 : reported.back();
 
