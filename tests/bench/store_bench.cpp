@@ -7,13 +7,15 @@
 /// $TMPDIR (or /tmp), removed at the end; on this machine /tmp is on the same disk as /work.
 ///
 /// A frame's batch: one keyframe, 60 upserted landmarks with 32-byte descriptors (50 new, 10 of
-/// the previous frame seen again) and 5 removals. Batches are built outside the timed region
-/// (manual timing around writeBatch() only); items_per_second counts frames.
+/// the previous frame seen again) and 5 removals, scattered over the map or near the robot. Batches
+/// are built outside the timed region (manual timing around writeBatch() only); items_per_second
+/// counts frames.
 
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -72,32 +74,53 @@ StoredLandmark makeLandmark(std::mt19937_64& rng, uint64_t id, int32_t session, 
   return l;
 }
 
+/// Where a frame's landmarks lie: kScattered draws them uniformly over the whole 200 m x 200 m
+/// map (the worst case for the R*Tree: every insert in another leaf); kLocal draws them within
+/// kLocalHalfWidthM of a robot driving a circle of radius kPathRadiusM at kStepM per frame, as a
+/// camera sees them.
+enum class Layout { kScattered, kLocal };
+constexpr double kLocalHalfWidthM = 8.0;
+constexpr double kPathRadiusM = 80.0;
+constexpr double kStepM = 0.05;
+
 /// Frame `frame`'s writes appended to *batch (ids frame * 64 + i).
-void appendFrame(std::mt19937_64& rng, int32_t session, int32_t frame, StoreBatch* batch) {
+void appendFrame(
+    std::mt19937_64& rng, Layout layout, int32_t session, int32_t frame, StoreBatch* batch) {
+  const double angle = frame * kStepM / kPathRadiusM;
+  const Eigen::Vector3d robot(kPathRadiusM * std::cos(angle), kPathRadiusM * std::sin(angle), 0.0);
+  std::uniform_real_distribution<double> near(-kLocalHalfWidthM, kLocalHalfWidthM);
+  const auto add = [&](uint64_t id) {
+    StoredLandmark l = makeLandmark(rng, id, session, frame);
+    if (layout == Layout::kLocal) {
+      l.p_m.x() = robot.x() + near(rng);
+      l.p_m.y() = robot.y() + near(rng);
+    }
+    batch->upserts.push_back(std::move(l));
+  };
   const uint64_t base = static_cast<uint64_t>(frame) * 64;
-  for (int i = 0; i < kNewPerFrame; ++i) {
-    batch->upserts.push_back(makeLandmark(rng, base + i, session, frame));
-  }
+  for (int i = 0; i < kNewPerFrame; ++i) add(base + i);
   if (frame > 0) {
     const uint64_t prev = base - 64;
-    for (int i = 0; i < kSeenAgainPerFrame; ++i) {
-      batch->upserts.push_back(makeLandmark(rng, prev + i, session, frame));
-    }
-    for (int i = 0; i < kRemovedPerFrame; ++i)
+    for (int i = 0; i < kSeenAgainPerFrame; ++i) add(prev + i);
+    for (int i = 0; i < kRemovedPerFrame; ++i) {
       batch->removed.push_back(prev + kNewPerFrame - 1 - i);
+    }
   }
   StoredKeyframe k;
   k.session = session;
   k.frame = frame;
   k.t_ns = frame * 50'000'000LL;
+  k.T_m_b.translation() = robot;
   batch->keyframes.push_back(k);
 }
 
-/// Args: frames per transaction, synchronous FULL (1) or NORMAL (0).
+/// Args: frames per transaction, synchronous FULL (1) or NORMAL (0), local layout (1) or
+/// scattered (0).
 void BM_WriteFrames(benchmark::State& state) {
   const int frames_per_transaction = static_cast<int>(state.range(0));
   store::LandmarkStoreOptions options;
   options.sync_every_commit = state.range(1) != 0;
+  const Layout layout = state.range(2) != 0 ? Layout::kLocal : Layout::kScattered;
   const std::string dir = benchDir();
   const std::string path = dir + "/write.db";
   fs::remove(path);
@@ -115,7 +138,8 @@ void BM_WriteFrames(benchmark::State& state) {
   int32_t frame = 0;
   for (auto _ : state) {
     StoreBatch batch;
-    for (int i = 0; i < frames_per_transaction; ++i) appendFrame(rng, session, frame++, &batch);
+    for (int i = 0; i < frames_per_transaction; ++i)
+      appendFrame(rng, layout, session, frame++, &batch);
     const auto start = std::chrono::steady_clock::now();
     const Status st = map->writeBatch(batch);
     const auto stop = std::chrono::steady_clock::now();
@@ -131,11 +155,8 @@ void BM_WriteFrames(benchmark::State& state) {
   for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(path + suffix);
 }
 BENCHMARK(BM_WriteFrames)
-    ->ArgNames({"frames_per_txn", "sync_full"})
-    ->Args({1, 0})
-    ->Args({10, 0})
-    ->Args({1, 1})
-    ->Args({10, 1})
+    ->ArgNames({"frames_per_txn", "sync_full", "local"})
+    ->ArgsProduct({{1, 10}, {0, 1}, {0, 1}})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 
