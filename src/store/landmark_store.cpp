@@ -190,13 +190,14 @@ Status LandmarkStoreOptions::validate() const {
 struct LandmarkStore::Impl {
   // The connection is declared first so that it is destroyed after the statements.
   SqliteConnection db;
-  SqliteStatement upsert_landmark, upsert_rtree, delete_landmark, delete_rtree, upsert_keyframe,
-      set_meta;
+  SqliteStatement select_position, upsert_landmark, upsert_rtree, delete_landmark, delete_rtree,
+      upsert_keyframe, set_meta;
   std::set<int32_t> sessions;
   uint64_t next_landmark_id = 1;
 
   Status prepareWriters() {
     for (auto [stmt, sql] : {
+             std::pair{&select_position, "SELECT x, y, z FROM landmarks WHERE id = ?1"},
              std::pair{&upsert_landmark,
                        "INSERT OR REPLACE INTO landmarks VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, "
                        "?9, ?10, ?11, ?12, ?13, ?14)"},
@@ -377,6 +378,14 @@ Status LandmarkStore::writeBatch(const StoreBatch& batch) {
   if (Status st = impl.db.exec("BEGIN IMMEDIATE"); !st) return st;
   auto write = [&]() -> Status {
     for (const StoredLandmark& l : batch.upserts) {
+      // A landmark seen again keeps its position (confirmed landmarks are not re-refined): its
+      // R*Tree entry, most of an upsert's cost, is then left as it is.
+      SqliteStatement& p = impl.select_position;
+      p.bindInt(1, static_cast<int64_t>(l.id));
+      const bool unmoved = p.step() == SqliteStatement::StepResult::kRow &&
+                           p.columnDouble(0) == l.p_m.x() && p.columnDouble(1) == l.p_m.y() &&
+                           p.columnDouble(2) == l.p_m.z();
+      p.reset();
       SqliteStatement& s = impl.upsert_landmark;
       s.bindInt(1, static_cast<int64_t>(l.id));
       s.bindDouble(2, l.p_m.x());
@@ -393,6 +402,7 @@ Status LandmarkStore::writeBatch(const StoreBatch& batch) {
       s.bindInt(13, l.descriptor_kind);
       s.bindBlob(14, l.descriptor.data(), l.descriptor.size());
       if (Status st = s.run(); !st) return st;
+      if (unmoved) continue;
       SqliteStatement& r = impl.upsert_rtree;
       r.bindInt(1, static_cast<int64_t>(l.id));
       r.bindDouble(2, l.p_m.x());

@@ -7,9 +7,10 @@
 /// $TMPDIR (or /tmp), removed at the end; on this machine /tmp is on the same disk as /work.
 ///
 /// A frame's batch: one keyframe, 60 upserted landmarks with 32-byte descriptors (50 new, 10 of
-/// the previous frame seen again) and 5 removals, scattered over the map or near the robot. Batches
-/// are built outside the timed region (manual timing around writeBatch() only); items_per_second
-/// counts frames.
+/// the previous frame seen again) and 5 removals, scattered over the map with every upsert
+/// moving (worst case) or near the robot with the seen-again landmarks unmoved (FrameStream).
+/// Batches are built outside the timed region (manual timing around writeBatch() only);
+/// items_per_second counts frames.
 
 #include <benchmark/benchmark.h>
 #include <unistd.h>
@@ -83,44 +84,67 @@ constexpr double kLocalHalfWidthM = 8.0;
 constexpr double kPathRadiusM = 80.0;
 constexpr double kStepM = 0.05;
 
-/// Frame `frame`'s writes appended to *batch (ids frame * 64 + i).
-void appendFrame(
-    std::mt19937_64& rng, Layout layout, int32_t session, int32_t frame, StoreBatch* batch) {
-  const double angle = frame * kStepM / kPathRadiusM;
-  const Eigen::Vector3d robot(kPathRadiusM * std::cos(angle), kPathRadiusM * std::sin(angle), 0.0);
-  std::uniform_real_distribution<double> near(-kLocalHalfWidthM, kLocalHalfWidthM);
-  const auto add = [&](uint64_t id) {
-    StoredLandmark l = makeLandmark(rng, id, session, frame);
-    if (layout == Layout::kLocal) {
-      l.p_m.x() = robot.x() + near(rng);
-      l.p_m.y() = robot.y() + near(rng);
+/// The frames' batches (ids frame * 64 + i). With moved = false a landmark seen again keeps its
+/// position, as the tracker keeps a confirmed landmark's (it is not re-refined); moved = true
+/// draws a new one (the worst case: every upsert moves an R*Tree entry).
+class FrameStream {
+ public:
+  FrameStream(Layout layout, bool moved, int32_t session)
+      : layout_(layout), moved_(moved), session_(session), rng_(kStoreBenchSeed) {}
+
+  void append(int32_t frame, StoreBatch* batch) {
+    const double angle = frame * kStepM / kPathRadiusM;
+    const Eigen::Vector3d robot(
+        kPathRadiusM * std::cos(angle), kPathRadiusM * std::sin(angle), 0.0);
+    std::uniform_real_distribution<double> near(-kLocalHalfWidthM, kLocalHalfWidthM);
+    const auto add = [&](uint64_t id) {
+      StoredLandmark l = makeLandmark(rng_, id, session_, frame);
+      if (layout_ == Layout::kLocal) {
+        l.p_m.x() = robot.x() + near(rng_);
+        l.p_m.y() = robot.y() + near(rng_);
+      }
+      batch->upserts.push_back(std::move(l));
+    };
+    const uint64_t base = static_cast<uint64_t>(frame) * 64;
+    if (frame > 0) {
+      const uint64_t prev = base - 64;
+      for (int i = 0; i < kSeenAgainPerFrame; ++i) {
+        add(prev + i);
+        if (!moved_) batch->upserts.back().p_m = previous_[static_cast<size_t>(i)];
+      }
+      for (int i = 0; i < kRemovedPerFrame; ++i) {
+        batch->removed.push_back(prev + kNewPerFrame - 1 - i);
+      }
     }
-    batch->upserts.push_back(std::move(l));
-  };
-  const uint64_t base = static_cast<uint64_t>(frame) * 64;
-  for (int i = 0; i < kNewPerFrame; ++i) add(base + i);
-  if (frame > 0) {
-    const uint64_t prev = base - 64;
-    for (int i = 0; i < kSeenAgainPerFrame; ++i) add(prev + i);
-    for (int i = 0; i < kRemovedPerFrame; ++i) {
-      batch->removed.push_back(prev + kNewPerFrame - 1 - i);
+    previous_.clear();
+    for (int i = 0; i < kNewPerFrame; ++i) {
+      add(base + i);
+      if (i < kSeenAgainPerFrame) previous_.push_back(batch->upserts.back().p_m);
     }
+    StoredKeyframe k;
+    k.session = session_;
+    k.frame = frame;
+    k.t_ns = frame * 50'000'000LL;
+    k.T_m_b.translation() = robot;
+    batch->keyframes.push_back(k);
   }
-  StoredKeyframe k;
-  k.session = session;
-  k.frame = frame;
-  k.t_ns = frame * 50'000'000LL;
-  k.T_m_b.translation() = robot;
-  batch->keyframes.push_back(k);
-}
+
+ private:
+  Layout layout_;
+  bool moved_;
+  int32_t session_;
+  std::mt19937_64 rng_;
+  std::vector<Eigen::Vector3d> previous_;
+};
 
 /// Args: frames per transaction, synchronous FULL (1) or NORMAL (0), local layout (1) or
-/// scattered (0).
+/// scattered (0), landmarks seen again moved (1) or not (0).
 void BM_WriteFrames(benchmark::State& state) {
   const int frames_per_transaction = static_cast<int>(state.range(0));
   store::LandmarkStoreOptions options;
   options.sync_every_commit = state.range(1) != 0;
   const Layout layout = state.range(2) != 0 ? Layout::kLocal : Layout::kScattered;
+  const bool moved = state.range(3) != 0;
   const std::string dir = benchDir();
   const std::string path = dir + "/write.db";
   fs::remove(path);
@@ -134,12 +158,11 @@ void BM_WriteFrames(benchmark::State& state) {
     state.SkipWithError("cannot begin a session");
     return;
   }
-  std::mt19937_64 rng(kStoreBenchSeed);
+  FrameStream stream(layout, moved, session);
   int32_t frame = 0;
   for (auto _ : state) {
     StoreBatch batch;
-    for (int i = 0; i < frames_per_transaction; ++i)
-      appendFrame(rng, layout, session, frame++, &batch);
+    for (int i = 0; i < frames_per_transaction; ++i) stream.append(frame++, &batch);
     const auto start = std::chrono::steady_clock::now();
     const Status st = map->writeBatch(batch);
     const auto stop = std::chrono::steady_clock::now();
@@ -155,8 +178,11 @@ void BM_WriteFrames(benchmark::State& state) {
   for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(path + suffix);
 }
 BENCHMARK(BM_WriteFrames)
-    ->ArgNames({"frames_per_txn", "sync_full", "local"})
-    ->ArgsProduct({{1, 10}, {0, 1}, {0, 1}})
+    ->ArgNames({"frames_per_txn", "sync_full", "local", "moved"})
+    // Worst case: scattered over the map, the seen-again landmarks moved.
+    ->ArgsProduct({{1, 10}, {0, 1}, {0}, {1}})
+    // As a camera sees them: near the robot, the seen-again landmarks where they were.
+    ->ArgsProduct({{1, 10}, {0, 1}, {1}, {0}})
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 

@@ -238,6 +238,20 @@ TEST(LandmarkStore, UpsertReplacesAndRemoveDeletesInOneBatch) {
   ASSERT_TRUE(store->queryRadius(second.upserts[0].p_m, 0.0, &near).isOk());
   ASSERT_EQ(near.size(), 1u);
   EXPECT_EQ(near[0].id, 2u);
+  // Landmark 2 moved: not found where it was.
+  ASSERT_TRUE(store->queryRadius(first.upserts[1].p_m, 0.0, &near).isOk());
+  EXPECT_TRUE(near.empty());
+  // Seen again without moving (only the counts change): the index still finds it, with the new
+  // fields.
+  StoreBatch third;
+  third.upserts = {expected[3]};
+  third.upserts[0].observations += 1;
+  third.upserts[0].last_seen_frame += 7;
+  ASSERT_TRUE(store->writeBatch(third).isOk());
+  ASSERT_TRUE(store->queryRadius(expected[3].p_m, 0.0, &near).isOk());
+  ASSERT_EQ(near.size(), 1u);
+  expectSame(near[0], third.upserts[0]);
+  ASSERT_TRUE(store->integrityCheck().isOk());
 }
 
 TEST(LandmarkStore, RejectsBadBatchesAndWritesNothing) {
