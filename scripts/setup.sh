@@ -7,6 +7,8 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libopencv-dev libmrpt-dev libceres-dev liboctomap-dev
   libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev nlohmann-json3-dev
+  # The landmark store (src/store): SQLite 3 with its R*Tree module.
+  libsqlite3-dev
   # Headless rendering: EGL with Mesa's software rasteriser (llvmpipe).
   libegl1 libegl-mesa0 libgl1-mesa-dri libgles2
   # Format and static checks (scripts/lint.sh), clang for the fuzz harnesses (tests/fuzz).

@@ -5,6 +5,7 @@
 
 #include "import_euroc_command.h"
 #include "import_kitti_command.h"
+#include "map_command.h"
 #include "run_command.h"
 #include "simulate_command.h"
 #include "stereo_eval_command.h"
@@ -193,6 +194,9 @@ int main(int argc, char** argv) {
       "--max-frames", ik_max_frames, "Import at most this many stereo pairs (the first ones)");
   import_kitti->add_flag("-q,--quiet", ik.quiet, "No progress bar");
 
+  twocam::tools::MapArgs map_args;
+  const twocam::tools::MapCommand map_cmd = twocam::tools::addMapCommand(app, &map_args);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -225,6 +229,7 @@ int main(int argc, char** argv) {
       if (run_world_opt->count() > 0) run.world_path = run_world;
       return twocam::tools::runRun(run);
     }
+    if (map_cmd.map->parsed()) return twocam::tools::runMap(map_cmd, map_args);
     if (stereo_eval->parsed()) {
       if (gt_invalid_opt->count() > 0) se.gt_invalid = se_gt_invalid;
       se.post_given = post_opt->count() > 0;
