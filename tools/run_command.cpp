@@ -9,6 +9,7 @@
 #include "eval/run_evaluator.h"
 #include "io/rawlog.h"
 #include "io/run_writer.h"
+#include "pipeline/map_recorder.h"
 #include "pipeline/run.h"
 #include "progress.h"
 #include "run_output.h"
@@ -79,19 +80,40 @@ int runRun(const RunArgs& args) {
   if (Status s = io::RunWriter::begin(args.output_dir, input_paths, wopt, &writer); !s)
     return fail(s.message());
 
+  // The map store: opened (refusals leave the file as it was) before any frame is processed.
+  std::unique_ptr<pipeline::MapRecorder> map;
+  if (args.map_path) {
+    if (Status s = pipeline::MapRecorder::open(*args.map_path,
+                                               pipeline::rigText(reader->rig()),
+                                               pipeline::toYaml(config),
+                                               args.log_path,
+                                               pipeline::MapRecorderOptions(),
+                                               &map);
+        !s)
+      return fail("--map " + *args.map_path + ": " + s.message());
+  }
+
   const int total = framesToRun(args.log_path, args.max_frames);
   inputs.sample_frame = args.sample_frame ? *args.sample_frame : std::max(0, total / 2);
   pipeline::Run run(reader->rig(), config);
   eval::RunEvaluator evaluator(reader->rig(), config, inputs);
   ProgressBar progress("run", total, !args.quiet && total > 0);
-  pipeline::RunCallbacks callbacks{
-      warn,
-      [&](const pipeline::RunFrame& f) { return evaluator.addFrame(f); },
-      [&](int frames) { progress.update(frames); }};
+  pipeline::RunCallbacks callbacks{warn,
+                                   [&](const pipeline::RunFrame& f) {
+                                     if (map) {
+                                       if (Status s = map->addFrame(f); !s)
+                                         return Status::error("--map: " + s.message());
+                                     }
+                                     return evaluator.addFrame(f);
+                                   },
+                                   [&](int frames) { progress.update(frames); }};
   if (Status s =
           run.execute(pipeline::frameSource(*reader), args.log_path, args.max_frames, callbacks);
       !s)
     return fail(s.message());
+  if (map) {
+    if (Status s = map->finish(); !s) return fail("--map " + *args.map_path + ": " + s.message());
+  }
 
   eval::RunOutputs outputs;
   if (Status s = evaluator.finish(run, &outputs); !s) return fail(s.message());
@@ -116,6 +138,11 @@ int runRun(const RunArgs& args) {
     written += ", " + (dir.empty() ? path : dir + "/");
   }
   std::cout << outputs.summary << "wrote " << written << " in " << args.output_dir << std::endl;
+  if (map) {
+    std::cout << "map: " << map->landmarksWritten() << " landmarks and " << run.summary().processed
+              << " poses in " << *args.map_path << " (session " << map->session() << ")"
+              << std::endl;
+  }
   if (!args.no_pictures) {
     std::cout << "pictures:" << std::endl;
     drawPictures(writer->outputDir());

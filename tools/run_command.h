@@ -20,6 +20,8 @@ struct RunArgs {
   /// exists (written by `twocam simulate`).
   std::optional<std::string> world_path;
   std::optional<int> max_frames;
+  /// Landmark store to record into (pipeline/map_recorder.h), created when missing.
+  std::optional<std::string> map_path;
   /// Frame (counted from 0) drawn in sample_frame/; default: the middle of the log.
   std::optional<int> sample_frame;
   /// Do not call scripts/plot_run.py at the end.

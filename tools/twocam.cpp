@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
 
   twocam::tools::RunArgs run;
   int run_frames = 0, run_sample = 0;
-  std::string run_policy, run_source, run_config, run_world, run_localization;
+  std::string run_policy, run_source, run_config, run_world, run_localization, run_map;
   auto* run_cmd =
       app.add_subcommand("run",
                          "Run frontend, landmark database and occupancy map over a log; write "
@@ -147,6 +147,11 @@ int main(int argc, char** argv) {
       run_cmd->add_option("--sample-frame",
                           run_sample,
                           "Frame drawn in sample_frame/ (default: the middle of the log)");
+  auto* run_map_opt = run_cmd->add_option(
+      "--map",
+      run_map,
+      "Landmark store (SQLite, docs/store.md) to record the confirmed landmarks and the poses "
+      "in; created when missing (a map that holds landmarks cannot be continued yet)");
   run_cmd->add_flag(
       "--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
   run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");
@@ -227,6 +232,7 @@ int main(int argc, char** argv) {
       if (run_source_opt->count() > 0) run.source = run_source;
       if (run_localization_opt->count() > 0) run.localization = run_localization;
       if (run_world_opt->count() > 0) run.world_path = run_world;
+      if (run_map_opt->count() > 0) run.map_path = run_map;
       return twocam::tools::runRun(run);
     }
     if (map_cmd.map->parsed()) return twocam::tools::runMap(map_cmd, map_args);

@@ -453,6 +453,48 @@ TEST(TwocamCli, RunLocalizesInEachModeAndRefusesAnUnknownOne) {
   EXPECT_FALSE(fs::exists(dir + "/bad"));
 }
 
+TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
+  const std::string dir = test::makeTempDir("cli_run_map");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 30 --seed 3 -q")
+                .exit_code,
+            0);
+  const std::string map = dir + "/m.db";
+  const RunResult r =
+      run("run " + dir + "/s.rawlog -o " + dir + "/out -q --no-pictures --map " + map);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const io::Json metrics = io::Json::parse(readFile(dir + "/out/metrics.json"));
+  const int64_t confirmed = metrics["landmarks"]["confirmed"].get<int64_t>();
+  ASSERT_GT(confirmed, 0);
+  EXPECT_NE(r.output.find("map: " + std::to_string(confirmed) + " landmarks and 30 poses"),
+            std::string::npos)
+      << r.output;
+  // The map holds the run's confirmed landmarks and one pose per frame.
+  const RunResult info = run("map info " + map);
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("landmarks: " + std::to_string(confirmed)), std::string::npos)
+      << info.output;
+  EXPECT_NE(info.output.find("keyframes: 30"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("s.rawlog"), std::string::npos) << info.output;
+  // A map that holds landmarks is not continued without relocalisation: an error naming it,
+  // exit 1, the map and the earlier output untouched, no new output folder.
+  const std::string before = readFile(map);
+  const RunResult again =
+      run("run " + dir + "/s.rawlog -o " + dir + "/out2 -q --no-pictures --map " + map);
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.error.find("--map " + map), std::string::npos) << again.error;
+  EXPECT_NE(again.error.find("relocalisation"), std::string::npos) << again.error;
+  EXPECT_EQ(readFile(map), before);
+  EXPECT_FALSE(fs::exists(dir + "/out2"));
+  // A file that is not a store: refused, unchanged.
+  { std::ofstream(dir + "/notes.txt") << "not a map\n"; }
+  const RunResult bad = run("run " + dir + "/s.rawlog -o " + dir + "/out3 -q --no-pictures --map " +
+                            dir + "/notes.txt");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.error.find("notes.txt"), std::string::npos) << bad.error;
+  EXPECT_EQ(readFile(dir + "/notes.txt"), "not a map\n");
+  EXPECT_FALSE(fs::exists(dir + "/out3"));
+}
+
 TEST(TwocamCli, RunReplacesAnEarlierRunAllOrNothingAndNeverAnInput) {
   const std::string dir = test::makeTempDir("cli_run_all_or_nothing");
   ASSERT_EQ(

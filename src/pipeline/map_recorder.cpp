@@ -1,0 +1,159 @@
+#include "pipeline/map_recorder.h"
+
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+#include "common/frames.h"
+#include "landmarks/landmark_database.h"
+#include "landmarks/landmark_model.h"
+
+namespace twocam::pipeline {
+
+Status MapRecorderOptions::validate() const {
+  if (frames_per_commit < 1 || frames_per_commit > 100000) {
+    return Status::error("map.frames_per_commit: " + std::to_string(frames_per_commit) +
+                         " (must be in [1, 100000])");
+  }
+  return store.validate();
+}
+
+std::string rigText(const StereoRig& rig) {
+  std::ostringstream o;
+  o.precision(17);
+  const Eigen::Vector3d t = rig.T_b_cl.translation();
+  const Eigen::Quaterniond q(rig.T_b_cl.linear());
+  o << "rig:\n  width_px: " << rig.width_px << "\n  height_px: " << rig.height_px
+    << "\n  fx_px: " << rig.fx_px << "\n  fy_px: " << rig.fy_px << "\n  cx_px: " << rig.cx_px
+    << "\n  cy_px: " << rig.cy_px << "\n  baseline_m: " << rig.baseline_m
+    << "\n  T_b_cl: {x_m: " << t.x() << ", y_m: " << t.y() << ", z_m: " << t.z()
+    << ", qw: " << q.w() << ", qx: " << q.x() << ", qy: " << q.y() << ", qz: " << q.z() << "}\n";
+  return o.str();
+}
+
+bool stereoPointCovariance(const StereoRig& rig,
+                           const Eigen::Isometry3d& T_w_cl,
+                           double u_px,
+                           double v_px,
+                           double d_px,
+                           double sigma_px,
+                           double sigma_d_px,
+                           Eigen::Matrix3d* cov_w) {
+  if (!(d_px > 0.0)) return false;
+  // p = b / d (u - cx, (v - cy) fx / fy, fx): the rectified triangulation.
+  const double b = rig.baseline_m;
+  const double x = (u_px - rig.cx_px) * b / d_px;
+  const double y = (v_px - rig.cy_px) * rig.fx_px / rig.fy_px * b / d_px;
+  const double z = rig.fx_px * b / d_px;
+  Eigen::Matrix3d J;  // d p / d (u, v, d)
+  J << b / d_px, 0.0, -x / d_px, 0.0, rig.fx_px / rig.fy_px * b / d_px, -y / d_px, 0.0, 0.0,
+      -z / d_px;
+  const Eigen::Vector3d var(sigma_px * sigma_px, sigma_px * sigma_px, sigma_d_px * sigma_d_px);
+  const Eigen::Matrix3d cov_cl = J * var.asDiagonal() * J.transpose();
+  const Eigen::Matrix3d R = T_w_cl.linear();
+  *cov_w = R * cov_cl * R.transpose();
+  return true;
+}
+
+Status MapRecorder::open(const std::string& path,
+                         const std::string& rig_text,
+                         const std::string& config_text,
+                         const std::string& log_path,
+                         const MapRecorderOptions& options,
+                         std::unique_ptr<MapRecorder>* out) {
+  if (Status s = options.validate(); !s) return s;
+  std::unique_ptr<store::LandmarkStore> st;
+  if (Status s =
+          store::LandmarkStore::open(path, store::OpenMode::kCreateOrExtend, &st, options.store);
+      !s)
+    return s;
+  store::StoreInfo info;
+  if (Status s = st->info(&info); !s) return s;
+  if (info.landmark_count > 0) {
+    return Status::error(
+        path + ": the map already holds " + std::to_string(info.landmark_count) +
+        " landmarks; continuing a map needs relocalisation in it, which is not built yet "
+        "(give a new --map path)");
+  }
+  std::unique_ptr<MapRecorder> r(new MapRecorder());
+  r->options_ = options;
+  if (Status s = st->beginSession(rig_text, config_text, log_path, &r->session_); !s) return s;
+  r->store_ = std::move(st);
+  *out = std::move(r);
+  return Status::ok();
+}
+
+Status MapRecorder::addFrame(const RunFrame& frame) {
+  const landmarks::LandmarkDatabase& db = frame.pipeline.database();
+  const landmarks::FrameReport& report = frame.pipeline.report();
+  const int64_t t_ns = frame.log.stereo.t_ns;
+  store::StoredKeyframe kf;
+  kf.session = session_;
+  kf.frame = frame.log.index;
+  kf.t_ns = t_ns;
+  kf.T_m_b = toIsometry(frame.output.pose);
+  batch_.keyframes.push_back(kf);
+
+  // Each landmark once per batch, with its state after the batch's last frame that saw it.
+  std::unordered_map<uint64_t, size_t> queued;
+  for (size_t i = 0; i < batch_.upserts.size(); ++i) queued[batch_.upserts[i].id] = i;
+  const double sigma_px = db.options().tracker.pixel_sigma_px;
+  const double sigma_d_px = db.options().tracker.disparity_sigma_px;
+  const auto record = [&](uint64_t id) {
+    const landmarks::Landmark* l = db.find(id);
+    if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) return;
+    store::StoredLandmark s;
+    s.id = l->id;
+    s.p_m = l->p_w;
+    const Eigen::Isometry3d T_w_cl =
+        landmarks::cameraPoseInWorld(l->anchor.odom_pose, db.rig().T_b_cl);
+    if (!stereoPointCovariance(db.rig(),
+                               T_w_cl,
+                               l->anchor.u_px,
+                               l->anchor.v_px,
+                               l->anchor.d_px,
+                               sigma_px,
+                               sigma_d_px,
+                               &s.cov_m)) {
+      s.cov_m.setZero();
+    }
+    s.confidence = l->confidence;
+    s.observations = l->n_obs;
+    s.session = session_;
+    s.first_seen_frame = l->first_frame;
+    s.last_seen_frame = l->last_seen_frame;
+    s.first_seen_t_ns = l->first_t_ns;
+    s.last_seen_t_ns = t_ns;
+    const auto it = queued.find(id);
+    if (it != queued.end()) {
+      s.first_seen_t_ns = batch_.upserts[it->second].first_seen_t_ns;
+      batch_.upserts[it->second] = s;
+    } else {
+      queued[id] = batch_.upserts.size();
+      batch_.upserts.push_back(s);
+    }
+    in_store_.insert(id);
+  };
+  for (uint64_t id : report.confirmed_ids) record(id);
+  for (uint64_t id : report.associated_ids) record(id);
+  for (uint64_t id : report.removed_ids) {
+    if (in_store_.erase(id) > 0) batch_.removed.push_back(id);
+  }
+  if (++frames_in_batch_ >= options_.frames_per_commit) return flush();
+  return Status::ok();
+}
+
+Status MapRecorder::flush() {
+  frames_in_batch_ = 0;
+  if (batch_.upserts.empty() && batch_.removed.empty() && batch_.keyframes.empty())
+    return Status::ok();
+  // A landmark removed after it was queued in this batch: the removal wins (applied after the
+  // upserts).
+  const Status s = store_->writeBatch(batch_);
+  batch_ = store::StoreBatch();
+  return s;
+}
+
+Status MapRecorder::finish() { return flush(); }
+
+}  // namespace twocam::pipeline
