@@ -1,7 +1,6 @@
 #include "import_euroc_command.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include <vector>
 
 #include "common/stats.h"
+#include "common/timer.h"
 #include "frontend/cv_interop.h"
 #include "frontend/rectify.h"
 #include "io/euroc.h"
@@ -66,7 +66,7 @@ Status loadRaw(const std::string& path,
 }  // namespace
 
 int runImportEuroc(const ImportEurocArgs& args) {
-  const auto t_start = std::chrono::steady_clock::now();
+  const Timer total;
   if (args.max_frames && *args.max_frames < 1)
     return fail("--max-frames " + std::to_string(*args.max_frames) + ": must be >= 1");
   std::error_code ec;
@@ -106,28 +106,26 @@ int runImportEuroc(const ImportEurocArgs& args) {
   ImageU8 raw_right;
   StereoFrame frame;
   for (int k = 0; k < n; ++k) {
-    const auto t0 = std::chrono::steady_clock::now();
+    Timer stage;
     if (Status st = loadRaw(index.left_paths[k], cam0, "cam0", &raw_left); !st)
       return fail("frame " + std::to_string(k) + ": " + st.message());
     if (Status st = loadRaw(index.right_paths[k], cam1, "cam1", &raw_right); !st)
       return fail("frame " + std::to_string(k) + ": " + st.message());
-    const auto t1 = std::chrono::steady_clock::now();
+    load_ms.push_back(stage.elapsedMs());
+    stage.restart();
     frame.t_ns = index.t_ns[k];
     if (Status st = rectifier.rectify(raw_left, raw_right, &frame.left, &frame.right); !st) {
       return fail("frame " + std::to_string(k) + " (" + index.left_paths[k] + "): " + st.message());
     }
-    const auto t2 = std::chrono::steady_clock::now();
+    rectify_ms.push_back(stage.elapsedMs());
+    stage.restart();
     // EuRoC has no wheel odometry and its ground truth (Vicon/Leica) is not converted here.
     if (Status st = writer->write(frame, nullptr, nullptr); !st) return fail(st.message());
-    const auto t3 = std::chrono::steady_clock::now();
-    load_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    rectify_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
-    write_ms.push_back(std::chrono::duration<double, std::milli>(t3 - t2).count());
+    write_ms.push_back(stage.elapsedMs());
     bar.update(k + 1);
   }
   if (Status st = writer->finish(); !st) return fail(st.message());
-  const double total_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double total_s = total.elapsedS();
 
   std::printf("imported %d of %d stereo pairs from %s into %s (images in %s)\n",
               n,

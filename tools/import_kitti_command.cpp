@@ -1,7 +1,6 @@
 #include "import_kitti_command.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include <vector>
 
 #include "common/stats.h"
+#include "common/timer.h"
 #include "frontend/cv_interop.h"
 #include "io/kitti.h"
 #include "io/rawlog.h"
@@ -68,7 +68,7 @@ double pathLength(const std::vector<Eigen::Isometry3d>& T_w_b) {
 }  // namespace
 
 int runImportKitti(const ImportKittiArgs& args) {
-  const auto t_start = std::chrono::steady_clock::now();
+  const Timer total;
   if (args.max_frames && *args.max_frames < 1)
     return fail("--max-frames " + std::to_string(*args.max_frames) + ": must be >= 1");
   if (args.seed && !args.synthetic_odometry)
@@ -113,13 +113,14 @@ int runImportKitti(const ImportKittiArgs& args) {
   ProgressBar bar("import-kitti", n, !args.quiet);
   StereoFrame frame;
   for (int k = 0; k < n; ++k) {
-    const auto t0 = std::chrono::steady_clock::now();
+    Timer stage;
     const size_t i = static_cast<size_t>(k);
     if (Status st = loadImage(seq.left_paths[i], seq.rig, &frame.left); !st)
       return fail("frame " + std::to_string(k) + ": " + st.message());
     if (Status st = loadImage(seq.right_paths[i], seq.rig, &frame.right); !st)
       return fail("frame " + std::to_string(k) + ": " + st.message());
-    const auto t1 = std::chrono::steady_clock::now();
+    load_ms.push_back(stage.elapsedMs());
+    stage.restart();
     frame.t_ns = seq.t_ns[i];
     OdometrySample odo;
     if (!odometry.empty()) odo = OdometrySample{frame.t_ns, odometry[i]};
@@ -132,14 +133,11 @@ int runImportKitti(const ImportKittiArgs& args) {
             frame, odometry.empty() ? nullptr : &odo, seq.T_w_b.empty() ? nullptr : &gt);
         !st)
       return fail(st.message());
-    const auto t2 = std::chrono::steady_clock::now();
-    load_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    write_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    write_ms.push_back(stage.elapsedMs());
     bar.update(k + 1);
   }
   if (Status st = writer->finish(); !st) return fail(st.message());
-  const double total_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double total_s = total.elapsedS();
 
   const StereoRig& rig = seq.rig;
   std::printf("imported %d of %d stereo pairs from %s into %s (images in %s)\n",

@@ -4,9 +4,10 @@
 
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
 #include <string>
+
+#include "common/timer.h"
 
 namespace twocam::tools {
 
@@ -16,14 +17,12 @@ class ProgressBar {
       : label_(std::move(label)),
         total_(total),
         enabled_(enabled),
-        tty_(isatty(fileno(stderr)) != 0),
-        start_(std::chrono::steady_clock::now()) {}
+        tty_(isatty(fileno(stderr)) != 0) {}
 
   void update(int done) {
     if (!enabled_ || total_ <= 0) return;
     const int pct = static_cast<int>(100.0 * done / total_);
-    const double s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double s = start_.elapsedS();
     const double rate = s > 0 ? done / s : 0.0;
     if (tty_) {
       constexpr int kWidth = 30;
@@ -51,7 +50,7 @@ class ProgressBar {
   bool enabled_;
   bool tty_;
   int last_decile_ = -1;
-  std::chrono::steady_clock::time_point start_;
+  Timer start_;  // from construction
 };
 
 }  // namespace twocam::tools

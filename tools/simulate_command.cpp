@@ -1,7 +1,6 @@
 #include "simulate_command.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include <vector>
 
 #include "common/stats.h"
+#include "common/timer.h"
 #include "io/pictures.h"
 #include "io/rawlog.h"
 #include "progress.h"
@@ -190,7 +190,7 @@ int runSimulate(const SimulateArgs& args) {
     }
   }
 
-  const auto t_setup = std::chrono::steady_clock::now();
+  const Timer setup;
   std::unique_ptr<sim::Simulator> simulator;
   if (Status st = sim::Simulator::create(world, sim::RendererOptions{}, &simulator); !st)
     return fail(st.message());
@@ -200,8 +200,7 @@ int runSimulate(const SimulateArgs& args) {
   std::unique_ptr<io::RawlogWriter> writer;
   if (Status st = io::RawlogWriter::open(args.output_path, world.rig, wopt, &writer); !st)
     return fail(st.message());
-  const double setup_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
+  const double setup_s = setup.elapsedS();
 
   const int n = world.frames;
   const int sheet_rows = std::min(4, n);
@@ -215,17 +214,16 @@ int runSimulate(const SimulateArgs& args) {
   long unresolved = 0;
 
   ProgressBar bar("simulate " + world.name, n, !args.quiet);
-  const auto t0 = std::chrono::steady_clock::now();
+  const Timer loop;
   sim::SimFrame frame;
   for (int k = 0; k < n; ++k) {
-    const auto ts = std::chrono::steady_clock::now();
+    Timer stage;
     simulator->next(&frame);
-    const auto tw = std::chrono::steady_clock::now();
+    sim_ms.push_back(stage.elapsedMs());
+    stage.restart();
     if (Status st = writer->write(frame.stereo, &frame.odometry, &frame.ground_truth); !st)
       return fail(st.message());
-    sim_ms.push_back(std::chrono::duration<double, std::milli>(tw - ts).count());
-    write_ms.push_back(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tw).count());
+    write_ms.push_back(stage.elapsedMs());
     render_ms.push_back(frame.render_stats.ms_render);
     depth_ms.push_back(frame.render_stats.ms_depth);
     unresolved += frame.render_stats.pixels_unresolved;
@@ -254,8 +252,7 @@ int runSimulate(const SimulateArgs& args) {
   }
   // Timed up to here: moving the finished log into place (and deleting an older log's image
   // folder it replaces) is not per-frame work.
-  const double loop_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double loop_s = loop.elapsedS();
   if (Status st = writer->close(); !st) return fail(st.message());
   const double fps = n / loop_s;
 

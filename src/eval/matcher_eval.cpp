@@ -1,11 +1,11 @@
 #include "eval/matcher_eval.h"
 
 #include <algorithm>
-#include <chrono>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "common/timer.h"
 #include "eval/stereo_pictures.h"
 #include "frontend/cv_interop.h"
 #include "frontend/dense_sad.h"
@@ -17,10 +17,6 @@
 
 namespace twocam::eval {
 namespace {
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 /// The salient modes' corners: Harris aiming at corners_per_mp, shown the image
 /// kSettlingPasses times so that its adaptive threshold (tuned from frame to frame) settles near
@@ -65,11 +61,11 @@ Status evalMaxTree(const MatcherRun& args,
     std::vector<Corner> corners;
     if (Status s = settledDetector(left, args.corners_per_mp, &detector, &corners); !s) return s;
     StereoHypotheses hyps;
-    const auto t0 = std::chrono::steady_clock::now();
+    const Timer t0;
     if (Status s = detector->detect(left, &corners); !s) return s;
     if (Status s = frontend::matchMaxTreeSalient(left, right, corners, options, &hyps); !s)
       return s;
-    const double ms = msSince(t0);
+    const double ms = t0.elapsedMs();
     if (Status s = evaluateSalient(hyps, gt, mask, eval_options, metrics); !s) return s;
     setTiming(ms, left.width, left.height, metrics);
     if (args.picture) {
@@ -78,9 +74,9 @@ Status evalMaxTree(const MatcherRun& args,
     }
     return Status::ok();
   }
-  const auto t0 = std::chrono::steady_clock::now();
+  const Timer t0;
   if (Status s = matcher.compute(left, right, options, &result); !s) return s;
-  const double ms = msSince(t0);
+  const double ms = t0.elapsedMs();
   const ImageF32& map = args.mode == "sparse" ? result.sparse : result.semi_dense;
   if (Status s = evaluateDense(map, gt, mask, eval_options, metrics); !s) return s;
   setTiming(ms, left.width, left.height, metrics);
@@ -133,9 +129,9 @@ Status runNcc(const MatcherRun& args,
     frontend::NccScaledMatcher matcher;
     ImageF32 disparity;
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;  // warm-up
-    const auto t0 = std::chrono::steady_clock::now();
+    const Timer t0;
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;
-    const double ms = msSince(t0);
+    const double ms = t0.elapsedMs();
     if (Status s = evaluateDense(disparity, gt, mask, eval_options, metrics); !s) return s;
     setTiming(ms, left.width, left.height, metrics);
     for (int v = 0; v < left.height; ++v) {
@@ -159,11 +155,11 @@ Status runNcc(const MatcherRun& args,
   std::vector<uint8_t> scales;
   if (Status s = frontend::matchNccSalient(left, right, corners, options, &hyps, &scales); !s)
     return s;
-  const auto t0 = std::chrono::steady_clock::now();
+  const Timer t0;
   if (Status s = detector->detect(left, &corners); !s) return s;
   if (Status s = frontend::matchNccSalient(left, right, corners, options, &hyps, &scales); !s)
     return s;
-  const double ms = msSince(t0);
+  const double ms = t0.elapsedMs();
   if (Status s = evaluateSalient(hyps, gt, mask, eval_options, metrics); !s) return s;
   setTiming(ms, left.width, left.height, metrics);
   for (const SalientPoint& p : hyps.points) {
@@ -230,9 +226,9 @@ Status runMatcher(const ImageU8& left,
     frontend::SupportValueMatcher matcher;
     ImageF32 disparity;
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;  // warm-up
-    const auto t0 = std::chrono::steady_clock::now();
+    const Timer t0;
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;
-    if (Status s = score_dense(disparity, msSince(t0)); !s) return s;
+    if (Status s = score_dense(disparity, t0.elapsedMs()); !s) return s;
   } else if (args.matcher == "ncc") {
     if (Status s = runNcc(
             args, left, right, gt, mask, eval_options, &out->metrics, &out->picture, &ncc_report);
@@ -275,9 +271,9 @@ Status runMatcher(const ImageU8& left,
     }
     cv::Mat fixed;
     m->compute(frontend::asMat(left), frontend::asMat(right), fixed);  // warm-up
-    const auto t0 = std::chrono::steady_clock::now();
+    const Timer t0;
     m->compute(frontend::asMat(left), frontend::asMat(right), fixed);
-    const double ms = msSince(t0);
+    const double ms = t0.elapsedMs();
     ImageF32 disparity(left.width, left.height);
     for (int v = 0; v < left.height; ++v) {
       for (int u = 0; u < left.width; ++u) {
@@ -297,9 +293,9 @@ Status runMatcher(const ImageU8& left,
     frontend::DenseSadMatcher matcher;
     ImageF32 disparity;
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;  // warm-up
-    const auto t0 = std::chrono::steady_clock::now();
+    const Timer t0;
     if (Status s = matcher.compute(left, right, options, &disparity); !s) return s;
-    if (Status s = score_dense(disparity, msSince(t0)); !s) return s;
+    if (Status s = score_dense(disparity, t0.elapsedMs()); !s) return s;
   } else {
     frontend::SalientSadOptions sad;
     sad.max_disparity_px = args.max_disparity_px;
@@ -324,10 +320,10 @@ Status runMatcher(const ImageU8& left,
                  : frontend::matchSalient(left, right, corners, sad, &hyps);
     };
     if (Status s = match(); !s) return s;
-    const auto t0 = std::chrono::steady_clock::now();
+    const Timer t0;
     if (Status s = detector->detect(left, &corners); !s) return s;
     if (Status s = match(); !s) return s;
-    const double ms = msSince(t0);
+    const double ms = t0.elapsedMs();
     if (Status s = evaluateSalient(hyps, gt, mask, eval_options, &out->metrics); !s) {
       return s;
     }

@@ -1,18 +1,10 @@
 #include "frontend/frontend.h"
 
-#include <chrono>
-
+#include "common/timer.h"
 #include "frontend/corner_pairing.h"
 #include "frontend/row_support.h"
 
 namespace twocam::frontend {
-namespace {
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 Status parseHypothesisSource(const std::string& name, HypothesisSource* source) {
   for (HypothesisSource s : {HypothesisSource::kSad,
@@ -109,7 +101,7 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
         std::to_string(frame.left.height) + " vs " + std::to_string(frame.right.width) + "x" +
         std::to_string(frame.right.height) + ")");
   }
-  const auto t0 = std::chrono::steady_clock::now();
+  const Timer t0;
   const HypothesisSource source = options_.source;
   if (source != HypothesisSource::kMaxTree) {
     if (Status s = left_detector_.detect(frame.left, &left_corners_); !s) return s;
@@ -117,8 +109,8 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
   if (source == HypothesisSource::kCornerPairing) {
     if (Status s = right_detector_.detect(frame.right, &right_corners_); !s) return s;
   }
-  timing_.harris_ms = msSince(t0);
-  const auto t1 = std::chrono::steady_clock::now();
+  timing_.harris_ms = t0.elapsedMs();
+  const Timer t1;
   Status s = Status::ok();
   switch (source) {
     case HypothesisSource::kSad:
@@ -150,8 +142,8 @@ Status Frontend::process(const StereoFrame& frame, StereoHypotheses* out) {
     if (Status r = measureRowSupport(frame.left, frame.right, options_.sad, out); !r) return r;
   }
   out->t_ns = frame.t_ns;
-  timing_.matching_ms = msSince(t1);
-  timing_.total_ms = msSince(t0);
+  timing_.matching_ms = t1.elapsedMs();
+  timing_.total_ms = t0.elapsedMs();
   return Status::ok();
 }
 

@@ -3,10 +3,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <optional>
 
+#include "common/timer.h"
 #include "landmarks/landmark_model.h"
 
 namespace twocam::pipeline {
@@ -23,10 +23,6 @@ OdometryErrorSigma poseSigma(const Eigen::Matrix3d& cov) {
 /// References the slip search gathers from the last frame before it looks further back [-]:
 /// a few times its fewest (PoseSearchOptions::min_reference), enough that most are in view.
 constexpr size_t kEnoughReference = 50;
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 
@@ -93,9 +89,9 @@ Status Pipeline::processFrontendOnly(const StereoFrame& stereo, FrameOutput* out
   out->outside_map = false;
   out->times = StageTimes{};
   out->failure = FrameOutput::Failure::kNone;
-  const auto t0 = std::chrono::steady_clock::now();
+  const Timer t0;
   const Status s = frontend_.process(stereo, &hyps_);
-  out->times.frontend_ms = msSince(t0);
+  out->times.frontend_ms = t0.elapsedMs();
   if (!s) out->failure = FrameOutput::Failure::kFrontend;
   return s;
 }
@@ -128,7 +124,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
                                  const StereoHypotheses& hyps,
                                  FrameOutput* out,
                                  const StereoFrame* images) {
-  const auto t1 = std::chrono::steady_clock::now();
+  const Timer t1;
   // The pose the database predicts with: odometry, or the prediction from the last estimate.
   using localization::Mode;
   localization::PoseWithCovariance prediction;
@@ -155,7 +151,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     // used, a pose found from the frame's hypotheses replaces it.
     out->searched = out->search_accepted = false;
     out->search_reference = out->search_prediction_score = 0;
-    const auto ts = std::chrono::steady_clock::now();
+    const Timer ts;
     if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled && has_estimate_) {
       reference_w_.clear();
       for (uint64_t id : reference_ids_) {
@@ -171,7 +167,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       out->search_accepted = sr.accepted;
       prediction.T_w_b = sr.T_w_b;
     }
-    search_ms = msSince(ts);
+    search_ms = ts.elapsedMs();
     out->pose = localization::toPose2(prediction.T_w_b);
   }
   // Gates from the estimate's covariance once the estimator has one (the first frame's pose is
@@ -186,7 +182,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     return s;
   }
   if (localizing) {
-    const auto tl = std::chrono::steady_clock::now();
+    const Timer tl;
     loc_obs_.clear();
     for (const auto& o : db_.confirmedObservations()) {
       loc_obs_.push_back({o.id, o.p_w, o.u_px, o.v_px, o.d_px});
@@ -236,7 +232,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       }
     }
     if (loc_options_.mode == Mode::kFused && has_estimate_before) slipTest(sr, step_noise, out);
-    out->times.localization_ms = msSince(tl) + search_ms;
+    out->times.localization_ms = tl.elapsedMs() + search_ms;
   }
   // Candidates whose corner was not detected are re-measured on this frame's images
   // (ConsistencyOptions::probe_unseen); replayed hypotheses (processHypotheses) have none. Its
@@ -255,11 +251,11 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     }
   }
   db_.finishFrame();
-  out->times.landmarks_ms = msSince(t1) - out->times.localization_ms;
+  out->times.landmarks_ms = t1.elapsedMs() - out->times.localization_ms;
 
   // Map: one ray per confirmed landmark observed in this frame (a landmark is listed once even
   // when several hypotheses of its corner pointed at it).
-  const auto t2 = std::chrono::steady_clock::now();
+  const Timer t2;
   // Read by id (FrameReport::hypothesis_landmark_id); the per-slot flags only deduplicate.
   const landmarks::Landmark* const first = db_.landmarks().data();
   if (slot_mapped_.size() < db_.landmarks().size()) slot_mapped_.resize(db_.landmarks().size(), 0);
@@ -283,7 +279,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
                                 static_cast<float>(out->camera_origin_w.z()));
   out->outside_map = !mapper_.tree().coordToKeyChecked(origin, origin_key);
   if (!out->outside_map) mapper_.insertFrame(out->camera_origin_w, out->mapped_points_w);
-  out->times.mapping_ms = msSince(t2);
+  out->times.mapping_ms = t2.elapsedMs();
   return Status::ok();
 }
 

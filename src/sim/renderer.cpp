@@ -9,22 +9,17 @@
 #include <mrpt/poses/CPose3D.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "common/options_check.h"
+#include "common/timer.h"
 #include "yaml/yaml_text.h"
 
 namespace twocam::sim {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 int nextPow2(int x) {
   int p = 1;
@@ -245,13 +240,13 @@ void StereoRenderer::render(const Eigen::Isometry3d& T_w_cl,
                             ImageF32* depth_left,
                             RenderStats* stats) {
   RenderStats local;
-  const auto t0 = Clock::now();
+  const Timer t0;
   const StereoRig& rig = impl_->rig;
   impl_->renderGrey(T_w_cl * rig.T_cl_cr(), right, false);
   impl_->renderGrey(T_w_cl, left, true);
-  local.ms_render = msSince(t0);
+  local.ms_render = t0.elapsedMs();
 
-  const auto t1 = Clock::now();
+  const Timer t1;
   const int w = rig.width_px, h = rig.height_px;
   *depth_left = ImageF32(w, h);
   const double near_m = impl_->options.clip_near_m;
@@ -320,7 +315,7 @@ void StereoRenderer::render(const Eigen::Isometry3d& T_w_cl,
     }
     std::swap(row_prev, row_cur);
   }
-  local.ms_depth = msSince(t1);
+  local.ms_depth = t1.elapsedMs();
   if (stats != nullptr) *stats = local;
 }
 
