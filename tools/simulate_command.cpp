@@ -133,6 +133,11 @@ int runSimulate(const SimulateArgs& args) {
     }
     world.odometry_noise = sim::scaledOdometryNoise(world.odometry_noise, f);
   }
+  if (args.start_waypoint) {
+    if (Status st = sim::startWaypointStatus(world.robot, *args.start_waypoint); !st)
+      return fail("--start-waypoint " + st.message());
+    world.robot.start_waypoint = *args.start_waypoint;
+  }
   if (args.frames) {
     if (*args.frames < 1)
       return fail("--frames " + std::to_string(*args.frames) + ": must be >= 1");
@@ -316,7 +321,8 @@ int runSimulate(const SimulateArgs& args) {
     f << "{\n  \"world\": \"" << world.name << "\",\n  \"world_file\": \"" << args.world_path
       << "\",\n  \"seed\": " << world.seed
       << ",\n  \"odometry_noise_scale\": " << args.odometry_noise_scale.value_or(1.0)
-      << ",\n  \"frames\": " << n << ",\n  \"width_px\": " << world.rig.width_px
+      << ",\n  \"start_waypoint\": " << world.robot.start_waypoint << ",\n  \"frames\": " << n
+      << ",\n  \"width_px\": " << world.rig.width_px
       << ",\n  \"height_px\": " << world.rig.height_px << ",\n  \"setup_s\": " << setup_s
       << ",\n  \"loop_s\": " << loop_s << ",\n  \"frames_per_s\": " << fps
       << ",\n  \"render_ms_median\": " << median(render_ms)

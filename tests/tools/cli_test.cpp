@@ -111,6 +111,36 @@ TEST(TwocamCli, SameSeedSameLogDifferentSeedDifferentLog) {
   EXPECT_FALSE(same("/a_preview/trajectory.csv", "/c_preview/trajectory.csv"));
 }
 
+TEST(TwocamCli, StartWaypointZeroIsByteIdenticalAndOtherWaypointsStartElsewhere) {
+  const std::string dir = test::makeTempDir("cli_start_waypoint");
+  const std::string base = "simulate " + smallWorld() + " --frames 3 --seed 5 -q -o " + dir;
+  ASSERT_EQ(run(base + "/none.rawlog").exit_code, 0);
+  ASSERT_EQ(run(base + "/zero.rawlog --start-waypoint 0").exit_code, 0);
+  ASSERT_EQ(run(base + "/two.rawlog --start-waypoint 2").exit_code, 0);
+  auto same = [&](const std::string& x, const std::string& y) {
+    return readFile(dir + x) == readFile(dir + y);
+  };
+  EXPECT_TRUE(same("/none.rawlog", "/zero.rawlog"));
+  EXPECT_TRUE(same("/none_Images/left_000002.png", "/zero_Images/left_000002.png"));
+  EXPECT_TRUE(same("/none_preview/trajectory.csv", "/zero_preview/trajectory.csv"));
+  EXPECT_FALSE(same("/none.rawlog", "/two.rawlog"));
+  // Waypoint 2 of the small world is (3, 2), heading for (0, 2): yaw pi.
+  const std::string traj = readFile(dir + "/two_preview/trajectory.csv");
+  EXPECT_NE(traj.find("\n0,0.000000,3.000000,2.000000,3.141593,3.000000,2.000000,3.141593\n"),
+            std::string::npos)
+      << traj;
+
+  for (const char* bad : {"4", "-1"}) {
+    const std::string log = dir + "/bad.rawlog";
+    const RunResult r =
+        run("simulate " + smallWorld() + " -o " + log + " -q --start-waypoint " + bad);
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find(std::string("--start-waypoint ") + bad), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("4 waypoints"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(log));
+  }
+}
+
 /// Writes a copy of the small world with one line replaced (or appended) and returns its path.
 std::string worldVariant(const std::string& dir,
                          const std::string& name,
