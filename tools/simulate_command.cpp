@@ -126,6 +126,11 @@ int runSimulate(const SimulateArgs& args) {
   sim::World world;
   if (Status st = sim::loadWorld(args.world_path, &world); !st) return fail(st.message());
   if (args.seed) world.seed = *args.seed;
+  if (args.noise_seed) {
+    if (args.seed) return fail("--noise-seed and --seed: give one of them");
+    world.texture_seed = world.seed;
+    world.seed = *args.noise_seed;
+  }
   if (args.odometry_noise_scale) {
     const double f = *args.odometry_noise_scale;
     if (!std::isfinite(f) || f < 0.0) {

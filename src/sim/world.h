@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -138,6 +139,10 @@ struct World {
   std::string name;
   /// Seed of every random draw of the simulation (textures, image noise, odometry noise).
   uint64_t seed = 1;
+  /// Seed of the procedural textures when set; otherwise `seed` draws them too. Set it to the
+  /// world file's seed to simulate the same-looking world with other noise (`twocam simulate
+  /// --noise-seed`): a second log of the same place, e.g. for relocalisation.
+  std::optional<uint64_t> texture_seed;
   /// Frames simulated when the command line does not say otherwise.
   int frames = 300;
   StereoRig rig;

@@ -141,6 +141,47 @@ TEST(TwocamCli, StartWaypointZeroIsByteIdenticalAndOtherWaypointsStartElsewhere)
   }
 }
 
+/// Left image of the first frame of a log (empty when it cannot be read).
+ImageU8 firstLeft(const std::string& path) {
+  std::unique_ptr<io::RawlogReader> r;
+  if (!io::RawlogReader::open(path, &r)) return {};
+  io::LogFrame f;
+  Status status;
+  if (!r->next(&f, &status)) return {};
+  return f.stereo.left;
+}
+
+double meanAbsDifference(const ImageU8& a, const ImageU8& b) {
+  EXPECT_EQ(a.data.size(), b.data.size());
+  double sum = 0.0;
+  for (size_t i = 0; i < a.data.size() && i < b.data.size(); ++i)
+    sum += std::abs(static_cast<int>(a.data[i]) - static_cast<int>(b.data[i]));
+  return a.data.empty() ? 1e9 : sum / static_cast<double>(a.data.size());
+}
+
+TEST(TwocamCli, NoiseSeedKeepsTheTexturesAndSeedChangesThem) {
+  const std::string dir = test::makeTempDir("cli_noise_seed");
+  const std::string base = "simulate " + smallWorld() + " --frames 1 -q -o " + dir;
+  ASSERT_EQ(run(base + "/default.rawlog").exit_code, 0);
+  ASSERT_EQ(run(base + "/noise.rawlog --noise-seed 99").exit_code, 0);
+  ASSERT_EQ(run(base + "/seed.rawlog --seed 99").exit_code, 0);
+  const ImageU8 a = firstLeft(dir + "/default.rawlog");
+  const ImageU8 n = firstLeft(dir + "/noise.rawlog");
+  const ImageU8 s = firstLeft(dir + "/seed.rawlog");
+  ASSERT_FALSE(a.empty());
+  // Other noise only: the images differ by about the noise (sigma 2 grey, difference of two
+  // draws: mean |.| ~ 2.3); other textures differ by tens of grey levels.
+  constexpr double kSameTexturesGrey = 5.0;
+  const double d_noise = meanAbsDifference(a, n);
+  EXPECT_GT(d_noise, 0.0);
+  EXPECT_LT(d_noise, kSameTexturesGrey);
+  EXPECT_GT(meanAbsDifference(a, s), 2.0 * kSameTexturesGrey);
+  const RunResult both = run(base + "/both.rawlog --noise-seed 3 --seed 4");
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.output.find("--noise-seed"), std::string::npos) << both.output;
+  EXPECT_FALSE(fs::exists(dir + "/both.rawlog"));
+}
+
 /// Writes a copy of the small world with one line replaced (or appended) and returns its path.
 std::string worldVariant(const std::string& dir,
                          const std::string& name,
