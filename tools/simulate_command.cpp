@@ -126,12 +126,22 @@ int runSimulate(const SimulateArgs& args) {
   sim::World world;
   if (Status st = sim::loadWorld(args.world_path, &world); !st) return fail(st.message());
   if (args.seed) world.seed = *args.seed;
+  if (args.noise_seed) {
+    if (args.seed) return fail("--noise-seed and --seed: give one of them");
+    world.texture_seed = world.seed;
+    world.seed = *args.noise_seed;
+  }
   if (args.odometry_noise_scale) {
     const double f = *args.odometry_noise_scale;
     if (!std::isfinite(f) || f < 0.0) {
       return fail("--odometry-noise-scale " + std::to_string(f) + ": must be a finite number >= 0");
     }
     world.odometry_noise = sim::scaledOdometryNoise(world.odometry_noise, f);
+  }
+  if (args.start_waypoint) {
+    if (Status st = sim::startWaypointStatus(world.robot, *args.start_waypoint); !st)
+      return fail("--start-waypoint " + st.message());
+    world.robot.start_waypoint = *args.start_waypoint;
   }
   if (args.frames) {
     if (*args.frames < 1)
@@ -313,7 +323,8 @@ int runSimulate(const SimulateArgs& args) {
     f << "{\n  \"world\": \"" << world.name << "\",\n  \"world_file\": \"" << args.world_path
       << "\",\n  \"seed\": " << world.seed
       << ",\n  \"odometry_noise_scale\": " << args.odometry_noise_scale.value_or(1.0)
-      << ",\n  \"frames\": " << n << ",\n  \"width_px\": " << world.rig.width_px
+      << ",\n  \"start_waypoint\": " << world.robot.start_waypoint << ",\n  \"frames\": " << n
+      << ",\n  \"width_px\": " << world.rig.width_px
       << ",\n  \"height_px\": " << world.rig.height_px << ",\n  \"setup_s\": " << setup_s
       << ",\n  \"loop_s\": " << loop_s << ",\n  \"frames_per_s\": " << fps
       << ",\n  \"render_ms_median\": " << median(render_ms)

@@ -16,6 +16,11 @@ struct SimulateArgs {
   std::optional<uint64_t> seed;
   /// Multiplies the world's odometry noise (sim::scaledOdometryNoise); 0 = exact odometry.
   std::optional<double> odometry_noise_scale;
+  /// Waypoint the robot starts at, heading for the next (sim::RobotSpec::start_waypoint).
+  std::optional<int> start_waypoint;
+  /// Seed of the image and odometry noise only: the textures keep the world's seed (the same
+  /// world seen again). Exclusive with seed.
+  std::optional<uint64_t> noise_seed;
   /// Folder for the contact sheet, trajectory CSV and timing summary; default "<stem>_preview"
   /// next to the log.
   std::string preview_dir;

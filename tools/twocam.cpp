@@ -38,6 +38,17 @@ int main(int argc, char** argv) {
       "--odometry-noise-scale",
       sim_noise_scale,
       "Multiply the world's odometry noise (0 = exact odometry, 3 = three times the default)");
+  uint64_t sim_noise_seed = 0;
+  auto* noise_seed_opt = simulate->add_option(
+      "--noise-seed",
+      sim_noise_seed,
+      "Seed of the image and odometry noise only; textures keep the world's seed (the same "
+      "world, another log)");
+  int sim_start_waypoint = 0;
+  auto* start_waypoint_opt = simulate->add_option(
+      "--start-waypoint",
+      sim_start_waypoint,
+      "Start at this waypoint of the world's path (0 = the first), heading for the next");
   simulate->add_option(
       "--preview-dir",
       sim.preview_dir,
@@ -212,6 +223,8 @@ int main(int argc, char** argv) {
       if (frames_opt->count() > 0) sim.frames = sim_frames;
       if (seed_opt->count() > 0) sim.seed = sim_seed;
       if (noise_opt->count() > 0) sim.odometry_noise_scale = sim_noise_scale;
+      if (start_waypoint_opt->count() > 0) sim.start_waypoint = sim_start_waypoint;
+      if (noise_seed_opt->count() > 0) sim.noise_seed = sim_noise_seed;
       return twocam::tools::runSimulate(sim);
     }
     if (import_euroc->parsed()) {

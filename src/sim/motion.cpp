@@ -31,12 +31,26 @@ double wrapAngle(double a) {
   return a <= -M_PI ? a + 2.0 * M_PI : a;
 }
 
-/// The start pose: at the first waypoint, heading for the second.
+/// The waypoint the robot heads for first: the one after robot.start_waypoint (wrapping round),
+/// skipping one that coincides with the start (a closed path's last waypoint repeating the
+/// first; World::validate() rules out consecutive repeats otherwise).
+size_t firstTarget(const RobotSpec& robot) {
+  const size_t n = robot.waypoints.size();
+  TWOCAM_CHECK(n >= 2) << "the robot path needs at least 2 waypoints, got " << n;
+  TWOCAM_CHECK(startWaypointStatus(robot, robot.start_waypoint).isOk())
+      << "robot.start_waypoint " << startWaypointStatus(robot, robot.start_waypoint).message();
+  const size_t k = static_cast<size_t>(robot.start_waypoint);
+  size_t target = (k + 1) % n;
+  if (robot.waypoints[target] == robot.waypoints[k]) target = (target + 1) % n;
+  TWOCAM_CHECK(robot.waypoints[target] != robot.waypoints[k])
+      << "waypoints " << k << " and " << target << " coincide";
+  return target;
+}
+
+/// The start pose: at waypoint start_waypoint, heading for firstTarget().
 Pose2 startPose(const RobotSpec& robot) {
-  TWOCAM_CHECK(robot.waypoints.size() >= 2)
-      << "the robot path needs at least 2 waypoints, got " << robot.waypoints.size();
-  const Eigen::Vector2d& p0 = robot.waypoints[0];
-  const Eigen::Vector2d d = robot.waypoints[1] - p0;
+  const Eigen::Vector2d& p0 = robot.waypoints[static_cast<size_t>(robot.start_waypoint)];
+  const Eigen::Vector2d d = robot.waypoints[firstTarget(robot)] - p0;
   Pose2 start;
   start.x_m = p0.x();
   start.y_m = p0.y();
@@ -55,6 +69,7 @@ MotionSimulator::MotionSimulator(const RobotSpec& robot,
   TWOCAM_CHECK(robot_.speed_mps >= 0.0) << "speed_mps = " << robot_.speed_mps;
   TWOCAM_CHECK(robot_.max_yaw_rate_rps > 0.0) << "max_yaw_rate_rps = " << robot_.max_yaw_rate_rps;
 
+  target_waypoint_ = firstTarget(robot_);
   state_.t_ns = start_time_ns_;
   state_.true_pose = startPose(robot_);
   state_.odom_pose = odometry_.pose();

@@ -22,10 +22,10 @@ struct MotionSample {
   double true_turned_rad = 0.0;
 };
 
-/// Steps a unicycle through the waypoints at the frame rate (with kSubstepsPerFrame internal
-/// integration steps per frame) and integrates wheel odometry with the configured errors
-/// (sim/wheel_odometry.h, fed the true increment of every substep).
-/// Deterministic for a given seed: the odometry noise draws from RandomStream::kOdometryNoise.
+/// Steps a unicycle through the waypoints, from robot.start_waypoint on, at the frame rate (with
+/// kSubstepsPerFrame internal integration steps per frame) and integrates wheel odometry with the
+/// configured errors (sim/wheel_odometry.h, fed the true increment of every substep). Deterministic
+/// for a given seed: the odometry noise draws from RandomStream::kOdometryNoise.
 class MotionSimulator {
  public:
   static constexpr int kSubstepsPerFrame = 10;

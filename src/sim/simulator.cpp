@@ -36,7 +36,8 @@ Status Simulator::create(const World& world,
                          const RendererOptions& options,
                          std::unique_ptr<Simulator>* out) {
   if (Status st = world.validate(); !st) return st;
-  std::mt19937_64 texture_rng = makeRng(world.seed, RandomStream::kTextures);
+  std::mt19937_64 texture_rng =
+      makeRng(world.texture_seed.value_or(world.seed), RandomStream::kTextures);
   std::vector<TexturedMesh> meshes;
   if (Status st = buildMeshes(world, texture_rng, &meshes); !st) return st;
   std::unique_ptr<StereoRenderer> renderer;

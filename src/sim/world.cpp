@@ -115,6 +115,10 @@ void checkRobot(const RobotSpec& robot, Checker* c) {
                  indexed("robot.waypoints", i) + " repeats the waypoint before it");
     }
   }
+  if (robot.waypoints.size() >= 2) {
+    const Status s = startWaypointStatus(robot, robot.start_waypoint);
+    c->require(s.isOk(), "robot.start_waypoint " + s.message());
+  }
 }
 
 void checkOdometryNoise(const OdometryNoiseSpec& odo, Checker* c) {
@@ -272,6 +276,17 @@ Status World::validate() const {
     }
   }
   return c.status();
+}
+
+Status startWaypointStatus(const RobotSpec& robot, int start_waypoint) {
+  const int n = static_cast<int>(robot.waypoints.size());
+  const int last = robot.loop ? n - 1 : n - 2;
+  if (start_waypoint >= 0 && start_waypoint <= last) return Status::ok();
+  std::string message = std::to_string(start_waypoint) + ": must be in [0, " +
+                        std::to_string(std::max(last, 0)) + "]; the path has " + std::to_string(n) +
+                        " waypoints";
+  if (!robot.loop) message += " and does not loop (loop: false stops at the last one)";
+  return Status::error(message);
 }
 
 Eigen::AlignedBox3d worldBounds(const World& world) {

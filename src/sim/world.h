@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,8 +66,13 @@ struct Shape {
 
 /// Differential-drive robot following waypoints on the floor with smooth turns.
 struct RobotSpec {
-  /// Waypoints (x, y) [m]; the robot starts at the first one, heading for the second.
+  /// Waypoints (x, y) [m]; the robot starts at waypoints[start_waypoint], heading for the next.
   std::vector<Eigen::Vector2d> waypoints;
+  /// Index of the waypoint the robot starts at, heading for the one after it (`twocam simulate
+  /// --start-waypoint`). 0 (the first) by default. A looping path wraps round past the last
+  /// waypoint to the first; a non-looping one still stops at its last waypoint, so there it must
+  /// be below the last index (see startWaypointStatus()).
+  int start_waypoint = 0;
   /// Cruise speed [m/s].
   double speed_mps = 0.4;
   /// Largest yaw rate [rad/s]; bounds how sharp turns are.
@@ -133,6 +139,10 @@ struct World {
   std::string name;
   /// Seed of every random draw of the simulation (textures, image noise, odometry noise).
   uint64_t seed = 1;
+  /// Seed of the procedural textures when set; otherwise `seed` draws them too. Set it to the
+  /// world file's seed to simulate the same-looking world with other noise (`twocam simulate
+  /// --noise-seed`): a second log of the same place, e.g. for relocalisation.
+  std::optional<uint64_t> texture_seed;
   /// Frames simulated when the command line does not say otherwise.
   int frames = 300;
   StereoRig rig;
@@ -147,6 +157,12 @@ struct World {
 
   [[nodiscard]] Status validate() const;
 };
+
+/// Whether start_waypoint is a valid start of robot's path: in [0, n - 1] for a looping path of
+/// n waypoints, in [0, n - 2] for a non-looping one (its last waypoint is where it stops). The
+/// error names the value and the number of waypoints, not the key, so that a caller can prefix
+/// the option the user typed (World::validate() prefixes robot.start_waypoint).
+[[nodiscard]] Status startWaypointStatus(const RobotSpec& robot, int start_waypoint);
 
 /// Axis-aligned bounding box of all shapes in the world frame [m].
 Eigen::AlignedBox3d worldBounds(const World& world);

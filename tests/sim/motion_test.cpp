@@ -390,5 +390,118 @@ TEST(MotionSimulator, SlipBetweenFramesShowsInTheNextFrame) {
   EXPECT_NEAR(samples[14].odom_pose.x_m - samples[14].true_pose.x_m, 0.2, kExactTol);
 }
 
+TEST(MotionSimulator, StartWaypointStartsThereHeadingForTheNext) {
+  RobotSpec r = squarePath();
+  for (int k = 0; k < 4; ++k) {
+    r.start_waypoint = k;
+    MotionSimulator sim(r, OdometryNoiseSpec{}, 3, kStartNs);
+    const MotionSample s = sim.next();
+    const Eigen::Vector2d& p = r.waypoints[static_cast<size_t>(k)];
+    const Eigen::Vector2d d = r.waypoints[static_cast<size_t>((k + 1) % 4)] - p;
+    EXPECT_EQ(s.true_pose.x_m, p.x()) << "start waypoint " << k;
+    EXPECT_EQ(s.true_pose.y_m, p.y()) << "start waypoint " << k;
+    EXPECT_NEAR(wrap(s.true_pose.yaw_rad - std::atan2(d.y(), d.x())), 0.0, kExactTol);
+    // Odometry starts at the true start pose.
+    EXPECT_EQ(s.odom_pose.x_m, s.true_pose.x_m);
+    EXPECT_EQ(s.odom_pose.y_m, s.true_pose.y_m);
+    EXPECT_EQ(s.odom_pose.yaw_rad, s.true_pose.yaw_rad);
+  }
+}
+
+TEST(MotionSimulator, StartWaypointZeroIsTheDefault) {
+  OdometryNoiseSpec n;
+  n.sigma_per_m = 0.05;
+  n.sigma_per_rad = 0.05;
+  RobotSpec r0 = squarePath();
+  r0.start_waypoint = 0;
+  const auto a = run(squarePath(), n, 7, 200);
+  const auto b = run(r0, n, 7, 200);
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].true_pose.x_m, b[k].true_pose.x_m);
+    EXPECT_EQ(a[k].true_pose.yaw_rad, b[k].true_pose.yaw_rad);
+    EXPECT_EQ(a[k].odom_pose.x_m, b[k].odom_pose.x_m);
+    EXPECT_EQ(a[k].odom_pose.y_m, b[k].odom_pose.y_m);
+  }
+}
+
+TEST(MotionSimulator, StartAtLastWaypointWrapsRoundToTheFirst) {
+  RobotSpec r = squarePath();
+  r.start_waypoint = 3;  // (0, 3), heading for (0, 0), i.e. -y
+  const auto samples = run(r, zeroNoise(), 1, static_cast<int>(8.0 / r.speed_mps * 15.0));
+  EXPECT_NEAR(wrap(samples[0].true_pose.yaw_rad + M_PI / 2.0), 0.0, kExactTol);
+  // Visits waypoint 0, then waypoint 1 after it (the path goes on past the wrap).
+  const double slack_m = r.waypoint_radius_m + r.speed_mps / r.frame_rate_hz;
+  size_t reached_0 = 0, reached_1 = 0;
+  for (size_t k = 1; k < samples.size(); ++k) {
+    const Eigen::Vector2d p(samples[k].true_pose.x_m, samples[k].true_pose.y_m);
+    if (reached_0 == 0 && (p - r.waypoints[0]).norm() <= slack_m) reached_0 = k;
+    if (reached_0 > 0 && reached_1 == 0 && (p - r.waypoints[1]).norm() <= slack_m) reached_1 = k;
+  }
+  EXPECT_GT(reached_0, 0u);
+  EXPECT_GT(reached_1, reached_0);
+}
+
+TEST(MotionSimulator, StartWaypointOfClosedPathSkipsTheRepeatedFirstWaypoint) {
+  // The last waypoint repeats the first: starting there heads for waypoint 1.
+  RobotSpec r;
+  r.waypoints = {{0.0, 0.0}, {2.0, 0.0}, {2.0, 2.0}, {0.0, 0.0}};
+  r.start_waypoint = 3;
+  MotionSimulator sim(r, zeroNoise(), 1, kStartNs);
+  EXPECT_NEAR(sim.next().true_pose.yaw_rad, 0.0, kExactTol);
+}
+
+TEST(MotionSimulator, StartWaypointOfNonLoopingPathStopsAtItsLastWaypoint) {
+  RobotSpec r = leftTurn();
+  r.start_waypoint = 1;  // (1, 0) heading +y, then stops at (1, 1)
+  const auto samples = run(r, zeroNoise(), 1, framesToFinish(r, 1.0) + 20);
+  EXPECT_NEAR(wrap(samples[0].true_pose.yaw_rad - M_PI / 2.0), 0.0, kExactTol);
+  constexpr double kStopTolM = 1e-3;
+  EXPECT_NEAR(samples.back().true_pose.x_m, 1.0, kStopTolM);
+  EXPECT_NEAR(samples.back().true_pose.y_m, 1.0, kStopTolM);
+  EXPECT_NEAR(samples.back().true_distance_m, 1.0, kStopTolM);
+}
+
+TEST(MotionSimulator, StartWaypointIsDeterministicForASeed) {
+  OdometryNoiseSpec n;
+  n.sigma_per_m = 0.05;
+  n.sigma_per_rad = 0.05;
+  RobotSpec r = squarePath();
+  r.start_waypoint = 2;
+  const auto a = run(r, n, 11, 200);
+  const auto b = run(r, n, 11, 200);
+  const auto c = run(r, n, 12, 200);
+  bool any_difference = false;
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].odom_pose.x_m, b[k].odom_pose.x_m);
+    EXPECT_EQ(a[k].odom_pose.yaw_rad, b[k].odom_pose.yaw_rad);
+    EXPECT_EQ(a[k].true_pose.x_m, c[k].true_pose.x_m);
+    any_difference = any_difference || a[k].odom_pose.x_m != c[k].odom_pose.x_m;
+  }
+  EXPECT_TRUE(any_difference);
+}
+
+TEST(StartWaypointStatus, OutOfRangeNamesValueAndWaypointCount) {
+  RobotSpec r = squarePath();
+  EXPECT_TRUE(startWaypointStatus(r, 0).isOk());
+  EXPECT_TRUE(startWaypointStatus(r, 3).isOk());
+  for (int k : {-1, 4, 100}) {
+    const Status s = startWaypointStatus(r, k);
+    ASSERT_FALSE(s.isOk()) << k;
+    EXPECT_NE(s.message().find(std::to_string(k)), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("4 waypoints"), std::string::npos) << s.message();
+  }
+  // A non-looping path stops at its last waypoint: no start there.
+  r.loop = false;
+  EXPECT_TRUE(startWaypointStatus(r, 2).isOk());
+  EXPECT_FALSE(startWaypointStatus(r, 3).isOk());
+  // World::validate() names the key.
+  World w;
+  w.robot = squarePath();
+  w.robot.start_waypoint = 9;
+  const Status v = w.validate();
+  ASSERT_FALSE(v.isOk());
+  EXPECT_NE(v.message().find("robot.start_waypoint 9"), std::string::npos) << v.message();
+}
+
 }  // namespace
 }  // namespace twocam::sim

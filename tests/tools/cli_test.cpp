@@ -111,6 +111,77 @@ TEST(TwocamCli, SameSeedSameLogDifferentSeedDifferentLog) {
   EXPECT_FALSE(same("/a_preview/trajectory.csv", "/c_preview/trajectory.csv"));
 }
 
+TEST(TwocamCli, StartWaypointZeroIsByteIdenticalAndOtherWaypointsStartElsewhere) {
+  const std::string dir = test::makeTempDir("cli_start_waypoint");
+  const std::string base = "simulate " + smallWorld() + " --frames 3 --seed 5 -q -o " + dir;
+  ASSERT_EQ(run(base + "/none.rawlog").exit_code, 0);
+  ASSERT_EQ(run(base + "/zero.rawlog --start-waypoint 0").exit_code, 0);
+  ASSERT_EQ(run(base + "/two.rawlog --start-waypoint 2").exit_code, 0);
+  auto same = [&](const std::string& x, const std::string& y) {
+    return readFile(dir + x) == readFile(dir + y);
+  };
+  EXPECT_TRUE(same("/none.rawlog", "/zero.rawlog"));
+  EXPECT_TRUE(same("/none_Images/left_000002.png", "/zero_Images/left_000002.png"));
+  EXPECT_TRUE(same("/none_preview/trajectory.csv", "/zero_preview/trajectory.csv"));
+  EXPECT_FALSE(same("/none.rawlog", "/two.rawlog"));
+  // Waypoint 2 of the small world is (3, 2), heading for (0, 2): yaw pi.
+  const std::string traj = readFile(dir + "/two_preview/trajectory.csv");
+  EXPECT_NE(traj.find("\n0,0.000000,3.000000,2.000000,3.141593,3.000000,2.000000,3.141593\n"),
+            std::string::npos)
+      << traj;
+
+  for (const char* bad : {"4", "-1"}) {
+    const std::string log = dir + "/bad.rawlog";
+    const RunResult r =
+        run("simulate " + smallWorld() + " -o " + log + " -q --start-waypoint " + bad);
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find(std::string("--start-waypoint ") + bad), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("4 waypoints"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(log));
+  }
+}
+
+/// Left image of the first frame of a log (empty when it cannot be read).
+ImageU8 firstLeft(const std::string& path) {
+  std::unique_ptr<io::RawlogReader> r;
+  if (!io::RawlogReader::open(path, &r)) return {};
+  io::LogFrame f;
+  Status status;
+  if (!r->next(&f, &status)) return {};
+  return f.stereo.left;
+}
+
+double meanAbsDifference(const ImageU8& a, const ImageU8& b) {
+  EXPECT_EQ(a.data.size(), b.data.size());
+  double sum = 0.0;
+  for (size_t i = 0; i < a.data.size() && i < b.data.size(); ++i)
+    sum += std::abs(static_cast<int>(a.data[i]) - static_cast<int>(b.data[i]));
+  return a.data.empty() ? 1e9 : sum / static_cast<double>(a.data.size());
+}
+
+TEST(TwocamCli, NoiseSeedKeepsTheTexturesAndSeedChangesThem) {
+  const std::string dir = test::makeTempDir("cli_noise_seed");
+  const std::string base = "simulate " + smallWorld() + " --frames 1 -q -o " + dir;
+  ASSERT_EQ(run(base + "/default.rawlog").exit_code, 0);
+  ASSERT_EQ(run(base + "/noise.rawlog --noise-seed 99").exit_code, 0);
+  ASSERT_EQ(run(base + "/seed.rawlog --seed 99").exit_code, 0);
+  const ImageU8 a = firstLeft(dir + "/default.rawlog");
+  const ImageU8 n = firstLeft(dir + "/noise.rawlog");
+  const ImageU8 s = firstLeft(dir + "/seed.rawlog");
+  ASSERT_FALSE(a.empty());
+  // Other noise only: the images differ by about the noise (sigma 2 grey, difference of two
+  // draws: mean |.| ~ 2.3); other textures differ by tens of grey levels.
+  constexpr double kSameTexturesGrey = 5.0;
+  const double d_noise = meanAbsDifference(a, n);
+  EXPECT_GT(d_noise, 0.0);
+  EXPECT_LT(d_noise, kSameTexturesGrey);
+  EXPECT_GT(meanAbsDifference(a, s), 2.0 * kSameTexturesGrey);
+  const RunResult both = run(base + "/both.rawlog --noise-seed 3 --seed 4");
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.output.find("--noise-seed"), std::string::npos) << both.output;
+  EXPECT_FALSE(fs::exists(dir + "/both.rawlog"));
+}
+
 /// Writes a copy of the small world with one line replaced (or appended) and returns its path.
 std::string worldVariant(const std::string& dir,
                          const std::string& name,

@@ -1,0 +1,322 @@
+#include "localization/relocalize.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <random>
+#include <unordered_map>
+
+#include "common/options_check.h"
+
+namespace twocam::localization {
+
+namespace {
+
+/// Candidates kept per frame point while matching: the best and enough runners-up to find the
+/// best landmark of another place for the ratio test (a map holds a corner a few times).
+constexpr size_t kCandidates = 6;
+/// Levenberg-Marquardt refinement rounds: solve on the RANSAC inliers, re-select, solve again.
+constexpr int kRefineRounds = 2;
+
+struct Candidate {
+  double distance = std::numeric_limits<double>::infinity();
+  uint32_t landmark = 0;
+};
+
+double maxDistance(const RelocalizationOptions& o, frontend::DescriptorKind kind) {
+  return kind == frontend::DescriptorKind::kOrb ? o.max_orb_distance : o.max_patch_distance;
+}
+
+/// Pixel grid over the frame points for the verification's neighbourhood look-ups.
+class PointGrid {
+ public:
+  PointGrid(const std::vector<RelocalizationPoint>& points, double cell_px) : cell_(cell_px) {
+    for (size_t i = 0; i < points.size(); ++i)
+      cells_[key(points[i].u_px, points[i].v_px)].push_back(static_cast<uint32_t>(i));
+  }
+  template <typename F>
+  void forNear(double u, double v, F&& f) const {
+    const auto cu = static_cast<int64_t>(std::floor(u / cell_));
+    const auto cv = static_cast<int64_t>(std::floor(v / cell_));
+    for (int64_t dv = -1; dv <= 1; ++dv) {
+      for (int64_t du = -1; du <= 1; ++du) {
+        const auto it = cells_.find(pack(cu + du, cv + dv));
+        if (it == cells_.end()) continue;
+        for (uint32_t i : it->second) f(i);
+      }
+    }
+  }
+
+ private:
+  static int64_t pack(int64_t cu, int64_t cv) { return cu * 1'000'003 + cv; }
+  int64_t key(double u, double v) const {
+    return pack(static_cast<int64_t>(std::floor(u / cell_)),
+                static_cast<int64_t>(std::floor(v / cell_)));
+  }
+  double cell_;
+  std::unordered_map<int64_t, std::vector<uint32_t>> cells_;
+};
+
+Eigen::Isometry3d fromRvecTvec(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Mat R;
+  cv::Rodrigues(rvec, R);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) T.linear()(r, c) = R.at<double>(r, c);
+    T.translation()(r) = tvec.at<double>(r);
+  }
+  return T;
+}
+
+/// Projection of p_cl to (u, v, d); false behind the camera.
+bool predict(const StereoRig& rig, const Eigen::Vector3d& p_cl, Eigen::Vector3d* uvd) {
+  if (p_cl.z() <= 0.0) return false;
+  (*uvd) << rig.fx_px * p_cl.x() / p_cl.z() + rig.cx_px,
+      rig.fy_px * p_cl.y() / p_cl.z() + rig.cy_px, rig.fx_px * rig.baseline_m / p_cl.z();
+  return true;
+}
+
+}  // namespace
+
+Status RelocalizationOptions::validate(const char* prefix) const {
+  const std::string p(prefix);
+  if (Status s = checkRange(p + "max_orb_distance", max_orb_distance, 0.0, 1.0); !s) return s;
+  if (Status s = checkRange(p + "max_patch_distance", max_patch_distance, 0.0, 2.0); !s) return s;
+  if (Status s = checkRange(p + "ratio", ratio, 0.0, 1.0); !s) return s;
+  if (Status s = checkRange(p + "same_place_m", same_place_m, 0.0, 10.0, "m"); !s) return s;
+  if (Status s = checkRange(p + "reprojection_px", reprojection_px, 0.1, 100.0, "px"); !s) return s;
+  if (Status s = checkRange(p + "inlier_disparity_px", inlier_disparity_px, 0.01, 100.0, "px"); !s)
+    return s;
+  if (Status s = checkRange(p + "ransac_iterations", ransac_iterations, 1, 1'000'000); !s) return s;
+  if (Status s = checkRange(p + "ransac_confidence", ransac_confidence, 0.5, 1.0); !s) return s;
+  if (Status s = checkRange(p + "min_inliers", min_inliers, 4, 100'000); !s) return s;
+  if (Status s = checkRange(p + "point_tolerance_m", point_tolerance_m, 0.0, 10.0, "m"); !s)
+    return s;
+  if (Status s = checkRange(p + "point_disparity_px", point_disparity_px, 0.0, 100.0, "px"); !s)
+    return s;
+  if (Status s = checkRange(p + "min_point_fraction", min_point_fraction, 0.0, 1.0); !s) return s;
+  if (Status s = checkRange(p + "verify_px", verify_px, 0.1, 100.0, "px"); !s) return s;
+  if (Status s = checkRange(p + "verify_disparity_px", verify_disparity_px, 0.01, 100.0, "px"); !s)
+    return s;
+  if (Status s = checkRange(p + "min_depth_m", min_depth_m, 0.0, 1000.0, "m"); !s) return s;
+  if (Status s = checkRange(p + "image_margin_px", image_margin_px, 0, 10'000, "px"); !s) return s;
+  if (Status s = checkRange(p + "min_verified", min_verified, 0, 100'000); !s) return s;
+  return checkRange(p + "min_verified_fraction", min_verified_fraction, 0.0, 1.0);
+}
+
+Status relocalize(const StereoRig& rig,
+                  const std::vector<RelocalizationPoint>& frame,
+                  const std::vector<MapLandmark>& map,
+                  const RelocalizationOptions& options,
+                  RelocalizationResult* result) {
+  if (Status s = options.validate(); !s) return s;
+  *result = RelocalizationResult();
+  if (frame.empty() || map.empty()) {
+    result->reason = frame.empty() ? "no frame points" : "empty map";
+    return Status::ok();
+  }
+  const frontend::DescriptorKind kind = frame.front().descriptor.kind;
+  for (size_t i = 0; i < frame.size(); ++i) {
+    if (frame[i].descriptor.kind != kind) {
+      return Status::error("relocalize: frame point " + std::to_string(i) + " has a " +
+                           frontend::descriptorKindName(frame[i].descriptor.kind) +
+                           " descriptor, point 0 a " + frontend::descriptorKindName(kind));
+    }
+    if (!(frame[i].d_px > 0.0) || !std::isfinite(frame[i].d_px)) {
+      return Status::error("relocalize: frame point " + std::to_string(i) + " has disparity " +
+                           std::to_string(frame[i].d_px) + "; must be > 0");
+    }
+  }
+  for (size_t j = 0; j < map.size(); ++j) {
+    if (map[j].descriptor.kind != kind) {
+      return Status::error("relocalize: map landmark " + std::to_string(map[j].id) + " has a " +
+                           frontend::descriptorKindName(map[j].descriptor.kind) +
+                           " descriptor, the frame " + frontend::descriptorKindName(kind));
+    }
+  }
+  const double max_distance = maxDistance(options, kind);
+  const double same_place_sq = options.same_place_m * options.same_place_m;
+
+  // 1. Matching with the ratio test against the best landmark of another place.
+  std::vector<Candidate> best(kCandidates);
+  for (size_t i = 0; i < frame.size(); ++i) {
+    std::fill(best.begin(), best.end(), Candidate{});
+    for (size_t j = 0; j < map.size(); ++j) {
+      const double d = frontend::descriptorDistance(frame[i].descriptor, map[j].descriptor);
+      if (d >= best.back().distance) continue;
+      size_t k = kCandidates - 1;
+      while (k > 0 && best[k - 1].distance > d) {
+        best[k] = best[k - 1];
+        --k;
+      }
+      best[k] = {d, static_cast<uint32_t>(j)};
+    }
+    if (!(best[0].distance <= max_distance)) continue;
+    double second = std::numeric_limits<double>::infinity();
+    for (size_t k = 1; k < kCandidates; ++k) {
+      if (!std::isfinite(best[k].distance)) break;
+      if ((map[best[k].landmark].p_m - map[best[0].landmark].p_m).squaredNorm() > same_place_sq) {
+        second = best[k].distance;
+        break;
+      }
+    }
+    if (best[0].distance < options.ratio * second || !std::isfinite(second)) {
+      result->matches.push_back({static_cast<uint32_t>(i), best[0].landmark, best[0].distance});
+    }
+  }
+  if (static_cast<int>(result->matches.size()) < options.min_inliers) {
+    result->reason = "too few descriptor matches (" + std::to_string(result->matches.size()) + ")";
+    return Status::ok();
+  }
+
+  // 2. PnP RANSAC. The seed permutes the correspondences (OpenCV 4.6's RANSAC draws from its
+  // own fixed-seed generator) and seeds OpenCV's RNG, restored afterwards.
+  std::vector<size_t> order(result->matches.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::mt19937_64 rng(options.seed);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  for (size_t k : order) {
+    const RelocalizationMatch& m = result->matches[k];
+    const Eigen::Vector3d& p = map[m.landmark].p_m;
+    object.emplace_back(p.x(), p.y(), p.z());
+    image.emplace_back(frame[m.point].u_px, frame[m.point].v_px);
+  }
+  const cv::Matx33d K(rig.fx_px, 0.0, rig.cx_px, 0.0, rig.fy_px, rig.cy_px, 0.0, 0.0, 1.0);
+  cv::Mat rvec, tvec;
+  std::vector<int> ransac_inliers;
+  const uint64 saved_state = cv::theRNG().state;
+  cv::theRNG().state = options.seed;
+  bool ok = false;
+  try {
+    ok = cv::solvePnPRansac(object,
+                            image,
+                            K,
+                            cv::noArray(),
+                            rvec,
+                            tvec,
+                            false,
+                            options.ransac_iterations,
+                            static_cast<float>(options.reprojection_px),
+                            options.ransac_confidence,
+                            ransac_inliers,
+                            cv::SOLVEPNP_AP3P);
+  } catch (const cv::Exception&) {
+    ok = false;
+  }
+  cv::theRNG().state = saved_state;
+  if (!ok || static_cast<int>(ransac_inliers.size()) < options.min_inliers) {
+    result->reason = "PnP RANSAC found " + std::to_string(ransac_inliers.size()) + " inliers";
+    return Status::ok();
+  }
+  rvec.convertTo(rvec, CV_64F);
+  tvec.convertTo(tvec, CV_64F);
+
+  // Refinement: Levenberg-Marquardt on the inliers, then the inliers re-selected with the
+  // refined pose in (u, v) and disparity.
+  std::vector<int> inl = ransac_inliers;
+  Eigen::Isometry3d T_cl_m = fromRvecTvec(rvec, tvec);
+  for (int round = 0; round < kRefineRounds; ++round) {
+    std::vector<cv::Point3d> o;
+    std::vector<cv::Point2d> im;
+    for (int k : inl) {
+      o.push_back(object[static_cast<size_t>(k)]);
+      im.push_back(image[static_cast<size_t>(k)]);
+    }
+    if (o.size() >= 4) cv::solvePnPRefineLM(o, im, K, cv::noArray(), rvec, tvec);
+    T_cl_m = fromRvecTvec(rvec, tvec);
+    inl.clear();
+    for (size_t k = 0; k < order.size(); ++k) {
+      const RelocalizationMatch& m = result->matches[order[k]];
+      Eigen::Vector3d uvd;
+      if (!predict(rig, T_cl_m * map[m.landmark].p_m, &uvd)) continue;
+      const RelocalizationPoint& f = frame[m.point];
+      if (std::hypot(uvd.x() - f.u_px, uvd.y() - f.v_px) <= options.reprojection_px &&
+          std::abs(uvd.z() - f.d_px) <= options.inlier_disparity_px)
+        inl.push_back(static_cast<int>(k));
+    }
+  }
+  result->pnp_solved = true;
+  result->T_m_cl = T_cl_m.inverse();
+  result->T_m_b = result->T_m_cl * rig.T_b_cl.inverse();
+  for (int k : inl) result->matches[order[static_cast<size_t>(k)]].inlier = true;
+  result->inliers = static_cast<int>(inl.size());
+
+  // 3. 3-D check of the inliers.
+  const double fb = rig.fx_px * rig.baseline_m;
+  std::vector<uint8_t> used(frame.size(), 0);
+  std::vector<uint8_t> landmark_used(map.size(), 0);
+  for (const RelocalizationMatch& m : result->matches) {
+    if (!m.inlier) continue;
+    used[m.point] = 1;
+    landmark_used[m.landmark] = 1;
+    const RelocalizationPoint& f = frame[m.point];
+    const std::optional<Eigen::Vector3d> p_cl =
+        triangulateRectified(rig, Eigen::Vector2d(f.u_px, f.v_px), f.d_px);
+    if (!p_cl) continue;
+    const double z = p_cl->z();
+    const double tol = options.point_tolerance_m + z * z / fb * options.point_disparity_px;
+    if ((*p_cl - T_cl_m * map[m.landmark].p_m).norm() <= tol) ++result->points_agreeing;
+  }
+
+  // 4. Verification by prediction of the other landmarks.
+  const PointGrid grid(frame, std::max(options.verify_px, 1.0));
+  const double verify_sq = options.verify_px * options.verify_px;
+  for (size_t j = 0; j < map.size(); ++j) {
+    if (landmark_used[j]) continue;
+    const Eigen::Vector3d p_cl = T_cl_m * map[j].p_m;
+    if (p_cl.z() < options.min_depth_m) continue;
+    Eigen::Vector3d uvd;
+    if (!predict(rig, p_cl, &uvd)) continue;
+    const double margin = options.image_margin_px;
+    if (uvd.x() < margin || uvd.y() < margin || uvd.x() > rig.width_px - 1 - margin ||
+        uvd.y() > rig.height_px - 1 - margin)
+      continue;
+    bool seen = false, hidden = false;
+    int seen_by = -1;
+    grid.forNear(uvd.x(), uvd.y(), [&](uint32_t i) {
+      if (seen || used[i]) return;
+      const RelocalizationPoint& f = frame[i];
+      const double du = f.u_px - uvd.x(), dv = f.v_px - uvd.y();
+      if (du * du + dv * dv > verify_sq) return;
+      if (f.d_px > uvd.z() + options.verify_disparity_px) {
+        hidden = true;
+        return;
+      }
+      if (std::abs(f.d_px - uvd.z()) <= options.verify_disparity_px &&
+          frontend::descriptorDistance(f.descriptor, map[j].descriptor) <= max_distance) {
+        seen = true;
+        seen_by = static_cast<int>(i);
+      }
+    });
+    if (seen) {
+      used[static_cast<size_t>(seen_by)] = 1;
+      ++result->predicted;
+      ++result->verified;
+    } else if (!hidden) {
+      ++result->predicted;
+    }
+  }
+  result->verified_fraction =
+      result->predicted > 0 ? static_cast<double>(result->verified) / result->predicted : 0.0;
+
+  if (result->inliers < options.min_inliers) {
+    result->reason = "too few inliers after refinement (" + std::to_string(result->inliers) + ")";
+  } else if (result->points_agreeing < options.min_point_fraction * result->inliers) {
+    result->reason = "3-D check: " + std::to_string(result->points_agreeing) + " of " +
+                     std::to_string(result->inliers) + " inliers agree with the map";
+  } else if (result->verified < options.min_verified ||
+             result->verified_fraction < options.min_verified_fraction) {
+    result->reason = "verification: " + std::to_string(result->verified) + " of " +
+                     std::to_string(result->predicted) + " predicted landmarks seen";
+  } else {
+    result->found = true;
+  }
+  return Status::ok();
+}
+
+}  // namespace twocam::localization
