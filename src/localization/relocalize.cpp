@@ -1,6 +1,9 @@
 #include "localization/relocalize.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -20,6 +23,9 @@ namespace {
 constexpr size_t kCandidates = 6;
 /// Levenberg-Marquardt refinement rounds: solve on the RANSAC inliers, re-select, solve again.
 constexpr int kRefineRounds = 2;
+/// Gauss-Newton iterations of the stereo refinement; it starts within the PnP's pixel error
+/// and converges in 2-3.
+constexpr int kStereoIterations = 5;
 
 struct Candidate {
   double distance = std::numeric_limits<double>::infinity();
@@ -104,6 +110,9 @@ Status RelocalizationOptions::validate(const char* prefix) const {
   if (Status s = checkRange(p + "min_depth_m", min_depth_m, 0.0, 1000.0, "m"); !s) return s;
   if (Status s = checkRange(p + "image_margin_px", image_margin_px, 0, 10'000, "px"); !s) return s;
   if (Status s = checkRange(p + "min_verified", min_verified, 0, 100'000); !s) return s;
+  if (Status s = checkRange(p + "pose_sigma_px", pose_sigma_px, 0.01, 100.0, "px"); !s) return s;
+  if (Status s = checkRange(p + "max_position_sigma_m", max_position_sigma_m, 0.0, 100.0, "m"); !s)
+    return s;
   return checkRange(p + "min_verified_fraction", min_verified_fraction, 0.0, 1.0);
 }
 
@@ -140,12 +149,39 @@ Status relocalize(const StereoRig& rig,
   const double max_distance = maxDistance(options, kind);
   const double same_place_sq = options.same_place_m * options.same_place_m;
 
-  // 1. Matching with the ratio test against the best landmark of another place.
+  // 1. Matching with the ratio test against the best landmark of another place. The patch's
+  // 1 - NCC uses norms computed once per descriptor (same value as descriptorDistance).
+  std::vector<double> inv_norm;
+  auto patchNorm = [](const frontend::Descriptor& d) {
+    int32_t n = 0;
+    for (int k = 0; k < frontend::kPatchGrid * frontend::kPatchGrid; ++k) {
+      const int32_t x = static_cast<int8_t>(d.bytes[static_cast<size_t>(k)]);
+      n += x * x;
+    }
+    return n > 0 ? 1.0 / std::sqrt(static_cast<double>(n)) : 0.0;
+  };
+  if (kind == frontend::DescriptorKind::kPatch) {
+    inv_norm.reserve(map.size());
+    for (const MapLandmark& l : map) inv_norm.push_back(patchNorm(l.descriptor));
+  }
   std::vector<Candidate> best(kCandidates);
   for (size_t i = 0; i < frame.size(); ++i) {
     std::fill(best.begin(), best.end(), Candidate{});
+    const frontend::Descriptor& fd = frame[i].descriptor;
+    const double inv_norm_f = kind == frontend::DescriptorKind::kPatch ? patchNorm(fd) : 0.0;
+    std::array<int8_t, frontend::kMaxDescriptorBytes> fq{};
+    for (size_t k = 0; k < fq.size(); ++k) fq[k] = static_cast<int8_t>(fd.bytes[k]);
     for (size_t j = 0; j < map.size(); ++j) {
-      const double d = frontend::descriptorDistance(frame[i].descriptor, map[j].descriptor);
+      double d = 0.0;
+      if (kind == frontend::DescriptorKind::kOrb) {
+        d = frontend::hammingDistance(fd, map[j].descriptor) / 256.0;
+      } else {
+        const uint8_t* mb = map[j].descriptor.bytes.data();
+        int32_t dot = 0;
+        for (int k = 0; k < frontend::kPatchGrid * frontend::kPatchGrid; ++k)
+          dot += static_cast<int32_t>(fq[static_cast<size_t>(k)]) * static_cast<int8_t>(mb[k]);
+        d = inv_norm_f > 0.0 && inv_norm[j] > 0.0 ? 1.0 - dot * inv_norm_f * inv_norm[j] : 1.0;
+      }
       if (d >= best.back().distance) continue;
       size_t k = kCandidates - 1;
       while (k > 0 && best[k - 1].distance > d) {
@@ -210,6 +246,7 @@ Status relocalize(const StereoRig& rig,
   }
   cv::theRNG().state = saved_state;
   if (!ok || static_cast<int>(ransac_inliers.size()) < options.min_inliers) {
+    result->inliers = static_cast<int>(ransac_inliers.size());
     result->reason = "PnP RANSAC found " + std::to_string(ransac_inliers.size()) + " inliers";
     return Status::ok();
   }
@@ -240,6 +277,61 @@ Status relocalize(const StereoRig& rig,
         inl.push_back(static_cast<int>(k));
     }
   }
+  // Stereo refinement: Gauss-Newton on the inliers' (u, v, d) residuals, which PnP's (u, v)
+  // leave out (the disparity is what fixes the range along a far view), then the covariance of
+  // the camera position from the same Jacobian with pose_sigma_px per coordinate.
+  {
+    std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> obs;  // (p_m, observed u v d)
+    for (int k : inl) {
+      const RelocalizationMatch& m = result->matches[order[static_cast<size_t>(k)]];
+      const RelocalizationPoint& f = frame[m.point];
+      obs.emplace_back(map[m.landmark].p_m, Eigen::Vector3d(f.u_px, f.v_px, f.d_px));
+    }
+    Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+    for (int it = 0; it <= kStereoIterations && obs.size() >= 3; ++it) {
+      H.setZero();
+      Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+      for (const auto& [p_m, z] : obs) {
+        const Eigen::Vector3d p = T_cl_m * p_m;
+        if (p.z() <= 0.0) continue;
+        Eigen::Vector3d uvd;
+        predict(rig, p, &uvd);
+        Eigen::Matrix3d d_uvd_d_p;
+        const double iz = 1.0 / p.z(), iz2 = iz * iz;
+        d_uvd_d_p << rig.fx_px * iz, 0.0, -rig.fx_px * p.x() * iz2, 0.0, rig.fy_px * iz,
+            -rig.fy_px * p.y() * iz2, 0.0, 0.0, -rig.fx_px * rig.baseline_m * iz2;
+        // Left perturbation T <- exp(delta) T, delta = (rotation w, translation t):
+        // dp = -[p]x w + t.
+        Eigen::Matrix<double, 3, 6> d_p_d_delta;
+        d_p_d_delta.leftCols<3>() << 0.0, p.z(), -p.y(), -p.z(), 0.0, p.x(), p.y(), -p.x(), 0.0;
+        d_p_d_delta.rightCols<3>().setIdentity();
+        const Eigen::Matrix<double, 3, 6> J = d_uvd_d_p * d_p_d_delta;
+        const Eigen::Vector3d r = uvd - z;
+        H += J.transpose() * J;
+        g += J.transpose() * r;
+      }
+      if (it == kStereoIterations) break;  // H at the solution, for the covariance
+      const Eigen::Matrix<double, 6, 1> delta = H.ldlt().solve(-g);
+      if (!delta.allFinite()) break;
+      Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+      const double angle = delta.head<3>().norm();
+      if (angle > 0.0)
+        step.linear() = Eigen::AngleAxisd(angle, delta.head<3>() / angle).toRotationMatrix();
+      step.translation() = delta.tail<3>();
+      T_cl_m = step * T_cl_m;
+    }
+    // Camera centre c_m = -R^T t moves by -R^T dt under the left perturbation.
+    const Eigen::Matrix<double, 6, 6> cov = options.pose_sigma_px * options.pose_sigma_px *
+                                            H.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
+    const Eigen::Matrix3d cov_t = cov.bottomRightCorner<3, 3>();
+    const double max_var =
+        cov_t.allFinite()
+            ? Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov_t).eigenvalues().maxCoeff()
+            : std::numeric_limits<double>::infinity();
+    result->position_sigma_m = std::sqrt(std::max(0.0, max_var));
+    if (!std::isfinite(result->position_sigma_m) || obs.size() < 3)
+      result->position_sigma_m = std::numeric_limits<double>::infinity();
+  }
   result->pnp_solved = true;
   result->T_m_cl = T_cl_m.inverse();
   result->T_m_b = result->T_m_cl * rig.T_b_cl.inverse();
@@ -248,7 +340,7 @@ Status relocalize(const StereoRig& rig,
 
   // 3. 3-D check of the inliers.
   const double fb = rig.fx_px * rig.baseline_m;
-  std::vector<uint8_t> used(frame.size(), 0);
+  std::vector<uint8_t> used(frame.size(), 0);  // frame points that are inliers
   std::vector<uint8_t> landmark_used(map.size(), 0);
   for (const RelocalizationMatch& m : result->matches) {
     if (!m.inlier) continue;
@@ -263,56 +355,60 @@ Status relocalize(const StereoRig& rig,
     if ((*p_cl - T_cl_m * map[m.landmark].p_m).norm() <= tol) ++result->points_agreeing;
   }
 
-  // 4. Verification by prediction of the other landmarks.
-  const PointGrid grid(frame, std::max(options.verify_px, 1.0));
-  const double verify_sq = options.verify_px * options.verify_px;
+  // 4. Verification by prediction: every landmark not matched as inlier is predicted in the
+  // image; each frame point not used as inlier with a predicted landmark near its pixel is
+  // checked, and verified when one of them also has its disparity and a similar descriptor.
+  // Checking frame points rather than landmarks makes the score independent of how densely
+  // the map covers the view (a map holds every corner of many frames, a frame sees a few).
+  std::vector<RelocalizationPoint> predicted;
+  std::vector<uint32_t> predicted_landmark;
+  const double margin = options.image_margin_px;
   for (size_t j = 0; j < map.size(); ++j) {
     if (landmark_used[j]) continue;
     const Eigen::Vector3d p_cl = T_cl_m * map[j].p_m;
     if (p_cl.z() < options.min_depth_m) continue;
     Eigen::Vector3d uvd;
     if (!predict(rig, p_cl, &uvd)) continue;
-    const double margin = options.image_margin_px;
     if (uvd.x() < margin || uvd.y() < margin || uvd.x() > rig.width_px - 1 - margin ||
         uvd.y() > rig.height_px - 1 - margin)
       continue;
-    bool seen = false, hidden = false;
-    int seen_by = -1;
-    grid.forNear(uvd.x(), uvd.y(), [&](uint32_t i) {
-      if (seen || used[i]) return;
-      const RelocalizationPoint& f = frame[i];
-      const double du = f.u_px - uvd.x(), dv = f.v_px - uvd.y();
-      if (du * du + dv * dv > verify_sq) return;
-      if (f.d_px > uvd.z() + options.verify_disparity_px) {
-        hidden = true;
-        return;
-      }
-      if (std::abs(f.d_px - uvd.z()) <= options.verify_disparity_px &&
-          frontend::descriptorDistance(f.descriptor, map[j].descriptor) <= max_distance) {
-        seen = true;
-        seen_by = static_cast<int>(i);
-      }
-    });
-    if (seen) {
-      used[static_cast<size_t>(seen_by)] = 1;
-      ++result->predicted;
-      ++result->verified;
-    } else if (!hidden) {
-      ++result->predicted;
-    }
+    predicted.push_back({uvd.x(), uvd.y(), uvd.z(), map[j].descriptor});
+    predicted_landmark.push_back(static_cast<uint32_t>(j));
   }
+  const PointGrid grid(predicted, std::max(options.verify_px, 1.0));
+  const double verify_sq = options.verify_px * options.verify_px;
+  for (size_t i = 0; i < frame.size(); ++i) {
+    if (used[i]) continue;
+    const RelocalizationPoint& f = frame[i];
+    bool near = false, seen = false;
+    grid.forNear(f.u_px, f.v_px, [&](uint32_t k) {
+      if (seen) return;
+      const RelocalizationPoint& p = predicted[k];
+      const double du = p.u_px - f.u_px, dv = p.v_px - f.v_px;
+      if (du * du + dv * dv > verify_sq) return;
+      near = true;
+      seen = std::abs(p.d_px - f.d_px) <= options.verify_disparity_px &&
+             frontend::descriptorDistance(f.descriptor, p.descriptor) <= max_distance;
+    });
+    result->checked += near ? 1 : 0;
+    result->verified += seen ? 1 : 0;
+  }
+  const int denominator = result->inliers + result->checked;
   result->verified_fraction =
-      result->predicted > 0 ? static_cast<double>(result->verified) / result->predicted : 0.0;
+      denominator > 0 ? static_cast<double>(result->inliers + result->verified) / denominator : 0.0;
 
   if (result->inliers < options.min_inliers) {
     result->reason = "too few inliers after refinement (" + std::to_string(result->inliers) + ")";
+  } else if (!(result->position_sigma_m <= options.max_position_sigma_m)) {
+    result->reason =
+        "position poorly constrained (sigma " + std::to_string(result->position_sigma_m) + " m)";
   } else if (result->points_agreeing < options.min_point_fraction * result->inliers) {
     result->reason = "3-D check: " + std::to_string(result->points_agreeing) + " of " +
                      std::to_string(result->inliers) + " inliers agree with the map";
   } else if (result->verified < options.min_verified ||
              result->verified_fraction < options.min_verified_fraction) {
     result->reason = "verification: " + std::to_string(result->verified) + " of " +
-                     std::to_string(result->predicted) + " predicted landmarks seen";
+                     std::to_string(result->checked) + " checked frame points verified";
   } else {
     result->found = true;
   }

@@ -5,10 +5,12 @@
 ///     bound and a ratio test against the second-nearest landmark that is not the same place).
 ///  2. Solve T_cl_m with OpenCV's PnP RANSAC (AP3P minimal sets, then Levenberg-Marquardt on
 ///     the inliers), seeded; keep the matches that agree with the pose in (u, v) and disparity.
+///     Then a Gauss-Newton refinement on the inliers' (u, v, d) and the position's covariance.
 ///  3. 3-D check: the inliers' stereo-triangulated points agree with their map points.
-///  4. Verification: predict every other landmark the pose puts in view and count those that a
-///     frame point of similar descriptor sees near its predicted (u, v, d). A pose found from
-///     a few chance matches in a wrong place predicts landmarks that are not there.
+///  4. Verification: predict every other landmark the pose puts in view; of the frame points
+///     (not inliers) with a predicted landmark near their pixel, count those for which one such
+///     landmark also has their disparity and a similar descriptor. A pose found from a few
+///     chance matches in a wrong place predicts landmarks that are not there.
 /// Accepted only when every test passes (the thresholds are RelocalizationOptions).
 ///
 /// Frames: m = the map's frame, cl = left camera optical frame, b = body (rig.T_b_cl).
@@ -60,6 +62,12 @@ struct RelocalizationOptions {
   double ransac_confidence = 0.999;
   /// Seed of OpenCV's RNG for RANSAC; the same seed gives the same result.
   uint64_t seed = 1;
+  /// Pixel and disparity noise assumed for the pose's covariance [px], and the largest standard
+  /// deviation of the camera position (its worst direction) a pose may have [m]. A view of
+  /// only far points fixes the rotation but not the range; such a frame is refused and a
+  /// later one taken. 1 px: a corner at an integer pixel, a sub-pixel disparity within ~0.5 px.
+  double pose_sigma_px = 1.0;
+  double max_position_sigma_m = 0.02;
   /// Fewest inliers for a pose. 15: a wrong place rarely gathers 15 consistent chance matches.
   int min_inliers = 15;
   /// 3-D check: an inlier's triangulated point agrees with its map point when closer than
@@ -68,19 +76,18 @@ struct RelocalizationOptions {
   double point_disparity_px = 1.0;
   /// Fewest inliers passing the 3-D check [fraction of the inliers].
   double min_point_fraction = 0.8;
-  /// Verification: a predicted landmark counts as seen when a frame point with a descriptor
-  /// within the match distance lies within verify_px of its predicted pixel and
-  /// verify_disparity_px of its predicted disparity [px].
+  /// Verification: a frame point is checked when a predicted landmark lies within verify_px of
+  /// it, and verified when one of those is also within verify_disparity_px of its disparity
+  /// with a descriptor within the match distance [px].
   double verify_px = 3.0;
   double verify_disparity_px = 1.5;
   /// Landmarks are predicted only in front of the camera beyond this depth, with their pixel
   /// at least this far inside the image [m], [px].
   double min_depth_m = 0.3;
   int image_margin_px = 16;
-  /// Fewest predicted landmarks seen, and their fewest fraction of the predicted (those not
-  /// hidden behind a frame point closer than predicted).
+  /// Fewest verified frame points (besides the inliers), and the fewest verified_fraction.
   int min_verified = 10;
-  double min_verified_fraction = 0.2;
+  double min_verified_fraction = 0.3;
 
   [[nodiscard]] Status validate(const char* prefix = "relocalization.") const;
 };
@@ -103,12 +110,18 @@ struct RelocalizationResult {
   Eigen::Isometry3d T_m_b = Eigen::Isometry3d::Identity();
   std::vector<RelocalizationMatch> matches;
   int inliers = 0;
+  /// Standard deviation of the camera position in its worst direction [m] (from the stereo
+  /// refinement's Jacobian with pose_sigma_px).
+  double position_sigma_m = 0.0;
   /// Inliers whose triangulated point agrees with the map (3-D check).
   int points_agreeing = 0;
-  /// Verification: landmarks predicted in view (not hidden), and those seen.
-  int predicted = 0;
+  /// Verification: frame points (not inliers) with a predicted landmark near them, and those
+  /// whose nearby landmark also agrees in disparity and descriptor.
+  int checked = 0;
   int verified = 0;
-  /// verified / predicted (0 when none predicted): the verification score.
+  /// The verification score (inliers + verified) / (inliers + checked): of the frame points
+  /// near a landmark the pose predicts, the fraction that agree with it (an inlier agrees by
+  /// construction). A wrong pose has few inliers and verifies almost nothing.
   double verified_fraction = 0.0;
 };
 
