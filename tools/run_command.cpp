@@ -4,12 +4,14 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 
 #include "eval/run_evaluator.h"
 #include "io/rawlog.h"
 #include "io/run_writer.h"
 #include "pipeline/map_recorder.h"
+#include "pipeline/map_relocalizer.h"
 #include "pipeline/run.h"
 #include "progress.h"
 #include "run_output.h"
@@ -18,6 +20,14 @@
 
 namespace twocam::tools {
 namespace {
+
+std::string formatNumber(const io::Json& value, int decimals) {
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(decimals);
+  o << value.get<double>();
+  return o.str();
+}
 
 int fail(const std::string& message) {
   std::cerr << "twocam run: error: " << message << std::endl;
@@ -81,8 +91,16 @@ int runRun(const RunArgs& args) {
     return fail(s.message());
 
   // The map store: opened (refusals leave the file as it was) before any frame is processed.
+  // --localize-only reads it to relocalise in; otherwise the run is recorded into it.
   std::unique_ptr<pipeline::MapRecorder> map;
-  if (args.map_path) {
+  std::unique_ptr<pipeline::MapRelocalizer> relocalizer;
+  if (args.localize_only && !args.map_path) return fail("--localize-only needs --map MAP.db");
+  if (args.map_path && args.localize_only) {
+    if (Status s = pipeline::MapRelocalizer::open(
+            *args.map_path, reader->rig(), pipeline::MapRelocalizerOptions(), &relocalizer);
+        !s)
+      return fail("--map " + *args.map_path + ": " + s.message());
+  } else if (args.map_path) {
     if (Status s = pipeline::MapRecorder::open(*args.map_path,
                                                pipeline::rigText(reader->rig()),
                                                pipeline::toYaml(config),
@@ -98,15 +116,17 @@ int runRun(const RunArgs& args) {
   pipeline::Run run(reader->rig(), config);
   eval::RunEvaluator evaluator(reader->rig(), config, inputs);
   ProgressBar progress("run", total, !args.quiet && total > 0);
-  pipeline::RunCallbacks callbacks{warn,
-                                   [&](const pipeline::RunFrame& f) {
-                                     if (map) {
-                                       if (Status s = map->addFrame(f); !s)
-                                         return Status::error("--map: " + s.message());
-                                     }
-                                     return evaluator.addFrame(f);
-                                   },
-                                   [&](int frames) { progress.update(frames); }};
+  const auto on_frame = [&](const pipeline::RunFrame& f) {
+    if (map) {
+      if (Status s = map->addFrame(f); !s) return Status::error("--map: " + s.message());
+    }
+    if (relocalizer) {
+      if (Status s = relocalizer->addFrame(f); !s)
+        return Status::error("relocalisation: " + s.message());
+    }
+    return evaluator.addFrame(f);
+  };
+  pipeline::RunCallbacks callbacks{warn, on_frame, [&](int frames) { progress.update(frames); }};
   if (Status s =
           run.execute(pipeline::frameSource(*reader), args.log_path, args.max_frames, callbacks);
       !s)
@@ -124,6 +144,26 @@ int runRun(const RunArgs& args) {
   if (synthetic) outputs.summary += "odometry: SYNTHETIC (" + *synthetic + ")\n";
   if (outputs.map_evaluated)
     outputs.text_files.emplace_back("world_outline.csv", worldOutlineCsv(world));
+  if (relocalizer) {
+    const pipeline::RelocalizationReport& rr = relocalizer->report();
+    outputs.metrics["relocalization"] = eval::relocalizationJson(rr, evaluator.groundTruthTrack());
+    if (!rr.map_track.empty()) {
+      outputs.text_files.emplace_back(
+          "trajectory_map.tum",
+          io::toTum(rr.map_track, "the run's poses in the frame of " + *args.map_path));
+    }
+    const io::Json& j = outputs.metrics["relocalization"];
+    outputs.summary +=
+        rr.frame < 0
+            ? "relocalisation: never placed in " + *args.map_path + " (" +
+                  std::to_string(rr.attempts) + " frames tried)\n"
+            : "relocalisation: frame " + std::to_string(rr.frame) + " placed in " + *args.map_path +
+                  " (" + std::to_string(rr.inliers) + " inliers" +
+                  (j["error_m"].is_number() ? ", error " + formatNumber(j["error_m"], 3) + " m " +
+                                                  formatNumber(j["error_deg"], 2) + " deg"
+                                            : std::string()) +
+                  ")\n";
+  }
   if (Status s = writeRunOutputs(outputs, run, writer.get()); !s) return fail(s.message());
 
   // Every file written, in order; a folder's files as the folder.

@@ -22,6 +22,9 @@ struct RunArgs {
   std::optional<int> max_frames;
   /// Landmark store to record into (pipeline/map_recorder.h), created when missing.
   std::optional<std::string> map_path;
+  /// With map_path: relocalise in the map and give the run's poses in its frame; the map is
+  /// only read (pipeline/map_relocalizer.h).
+  bool localize_only = false;
   /// Frame (counted from 0) drawn in sample_frame/; default: the middle of the log.
   std::optional<int> sample_frame;
   /// Do not call scripts/plot_run.py at the end.

@@ -163,6 +163,10 @@ int main(int argc, char** argv) {
       run_map,
       "Landmark store (SQLite, docs/store.md) to record the confirmed landmarks and the poses "
       "in; created when missing (a map that holds landmarks cannot be continued yet)");
+  run_cmd->add_flag("--localize-only",
+                    run.localize_only,
+                    "With --map: relocalise in the map (read only) and write the run's poses in "
+                    "its frame (trajectory_map.tum, metrics.json relocalization)");
   run_cmd->add_flag(
       "--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
   run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");

@@ -27,6 +27,7 @@
 #include "io/trajectory.h"
 #include "mapping/occupancy_mapper.h"
 #include "pipeline/config.h"
+#include "pipeline/map_relocalizer.h"
 #include "pipeline/run.h"
 #include "sim/world.h"
 
@@ -51,6 +52,15 @@ struct RunOutputs {
   bool sample_taken = false;
 };
 
+/// metrics.json `relocalization` (`--localize-only`, pipeline/map_relocalizer.h): `frame` (first
+/// frame placed in the map, -1 when never), `attempts`, `map_landmarks`, the placement's
+/// `inliers`, `verified` and `verified_fraction`, `attempt_ms_median`, and against the log's true
+/// poses (the map frame being the true world frame of the run that built it) `error_m`,
+/// `error_deg` at the placed frame and `ate_rmse_m` of the run's track in the map frame from
+/// there; each absent (null) with `absent` saying why when it cannot be computed.
+io::Json relocalizationJson(const pipeline::RelocalizationReport& report,
+                            const std::vector<io::TimedPose>& truth);
+
 class RunEvaluator {
  public:
   struct Inputs {
@@ -72,6 +82,8 @@ class RunEvaluator {
 
   /// The run's outputs from the finished run. Errors: the trajectory evaluation fails.
   [[nodiscard]] Status finish(const pipeline::Run& run, RunOutputs* out) const;
+  /// The true body poses of the processed frames that had one.
+  [[nodiscard]] const std::vector<io::TimedPose>& groundTruthTrack() const { return gt_track_; }
 
  private:
   /// The run's mapped rays placed again with other poses (the true ones, or odometry's): each

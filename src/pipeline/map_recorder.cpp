@@ -7,6 +7,7 @@
 #include "common/frames.h"
 #include "landmarks/landmark_database.h"
 #include "landmarks/landmark_model.h"
+#include "pipeline/map_relocalizer.h"
 
 namespace twocam::pipeline {
 
@@ -15,6 +16,7 @@ Status MapRecorderOptions::validate() const {
     return Status::error("map.frames_per_commit: " + std::to_string(frames_per_commit) +
                          " (must be in [1, 100000])");
   }
+  if (Status s = descriptors.validate("map.descriptors."); !s) return s;
   return store.validate();
 }
 
@@ -72,8 +74,8 @@ Status MapRecorder::open(const std::string& path,
   if (info.landmark_count > 0) {
     return Status::error(
         path + ": the map already holds " + std::to_string(info.landmark_count) +
-        " landmarks; continuing a map needs relocalisation in it, which is not built yet "
-        "(give a new --map path)");
+        " landmarks; merging a run into a map is not built yet (give a new --map path, or "
+        "--localize-only to localise in it)");
   }
   std::unique_ptr<MapRecorder> r(new MapRecorder());
   r->options_ = options;
@@ -124,6 +126,11 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
     s.last_seen_frame = l->last_seen_frame;
     s.first_seen_t_ns = l->first_t_ns;
     s.last_seen_t_ns = t_ns;
+    if (const auto d = descriptors_.find(id); d != descriptors_.end()) {
+      s.descriptor_kind = storedDescriptorKind(d->second.kind);
+      const auto n = static_cast<size_t>(frontend::descriptorBytes(d->second.kind));
+      s.descriptor.assign(d->second.bytes.begin(), d->second.bytes.begin() + n);
+    }
     const auto it = queued.find(id);
     if (it != queued.end()) {
       s.first_seen_t_ns = batch_.upserts[it->second].first_seen_t_ns;
@@ -134,9 +141,36 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
     }
     in_store_.insert(id);
   };
+  // Descriptors of the landmarks confirmed in this frame, at their projection in its left image.
+  if (!report.confirmed_ids.empty()) {
+    const Eigen::Isometry3d T_cl_w =
+        landmarks::cameraPoseInWorld(frame.output.pose, db.rig().T_b_cl).inverse();
+    std::vector<Corner> corners;
+    std::vector<uint64_t> ids;
+    for (uint64_t id : report.confirmed_ids) {
+      const landmarks::Landmark* l = db.find(id);
+      Eigen::Vector3d uvd;
+      if (l == nullptr || !landmarks::projectStereo(db.rig(), T_cl_w * l->p_w, &uvd)) continue;
+      Corner c;
+      c.u_px = static_cast<int>(std::lround(uvd.x()));
+      c.v_px = static_cast<int>(std::lround(uvd.y()));
+      if (c.u_px < 0 || c.v_px < 0 || c.u_px >= db.rig().width_px || c.v_px >= db.rig().height_px)
+        continue;
+      corners.push_back(c);
+      ids.push_back(id);
+    }
+    frontend::DescribedCorners described;
+    if (Status s = frontend::describeCorners(
+            frame.log.stereo.left, corners, options_.descriptors, &described);
+        !s)
+      return Status::error("frame " + std::to_string(frame.log.index) + ": " + s.message());
+    for (size_t i = 0; i < described.kept.size(); ++i)
+      descriptors_[ids[described.kept[i]]] = described.descriptors[i];
+  }
   for (uint64_t id : report.confirmed_ids) record(id);
   for (uint64_t id : report.associated_ids) record(id);
   for (uint64_t id : report.removed_ids) {
+    descriptors_.erase(id);
     if (in_store_.erase(id) > 0) batch_.removed.push_back(id);
   }
   if (++frames_in_batch_ >= options_.frames_per_commit) return flush();

@@ -2,20 +2,23 @@
 /// The run's side of the landmark store (store/landmark_store.h, Paper A §5.5.2: the robot's
 /// main computer keeps the landmark database): `twocam run LOG --map MAP.db` records every
 /// confirmed landmark (position and covariance in the map frame, confidence, observation count,
-/// first and last seen) and every frame's body pose as a keyframe, one transaction per
+/// first and last seen, a descriptor from the confirming frame) and every frame's body pose as
+/// a keyframe, one transaction per
 /// `frames_per_commit` frames, so a killed run leaves the map as of its last commit.
 ///
 /// The map frame is the run's world frame (the estimated one with localisation, the odometry
-/// frame without). A map that already holds landmarks is refused: continuing it needs
-/// relocalisation in it, which is not built yet (issue 25).
+/// frame without). A map that already holds landmarks is refused: merging a run into it is not
+/// built yet (issue 25); pipeline/map_relocalizer.h localises a run in it.
 
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "common/rig.h"
 #include "common/status.h"
+#include "frontend/descriptors.h"
 #include "pipeline/run.h"
 #include "store/landmark_store.h"
 
@@ -26,6 +29,10 @@ struct MapRecorderOptions {
   /// with synchronous commits, one per frame 1.6-4.6 ms (docs/store.md).
   int frames_per_commit = 10;
   store::LandmarkStoreOptions store;
+  /// The appearance kept with each landmark for relocalisation, taken in the left image of the
+  /// frame that confirmed it at its projection there (frontend/descriptors.h). ORB by default:
+  /// docs/relocalization.md.
+  frontend::DescriptorOptions descriptors;
   [[nodiscard]] Status validate() const;
 };
 
@@ -75,6 +82,8 @@ class MapRecorder {
   store::StoreBatch batch_;
   int frames_in_batch_ = 0;
   std::unordered_set<uint64_t> in_store_;
+  /// Every recorded landmark's descriptor (an upsert replaces the whole row).
+  std::unordered_map<uint64_t, frontend::Descriptor> descriptors_;
 };
 
 }  // namespace twocam::pipeline

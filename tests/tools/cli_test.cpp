@@ -553,9 +553,26 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
       run("run " + dir + "/s.rawlog -o " + dir + "/out2 -q --no-pictures --map " + map);
   EXPECT_EQ(again.exit_code, 1);
   EXPECT_NE(again.error.find("--map " + map), std::string::npos) << again.error;
-  EXPECT_NE(again.error.find("relocalisation"), std::string::npos) << again.error;
+  EXPECT_NE(again.error.find("--localize-only"), std::string::npos) << again.error;
   EXPECT_EQ(readFile(map), before);
   EXPECT_FALSE(fs::exists(dir + "/out2"));
+  // Localising in the map (read only): the same log is placed at once, within the map's own
+  // error, and its poses are given in the map frame.
+  const RunResult loc = run("run " + dir + "/s.rawlog -o " + dir + "/loc -q --no-pictures --map " +
+                            map + " --localize-only");
+  ASSERT_EQ(loc.exit_code, 0) << loc.output;
+  EXPECT_EQ(readFile(map), before);
+  const io::Json reloc = io::Json::parse(readFile(dir + "/loc/metrics.json"))["relocalization"];
+  EXPECT_EQ(reloc["frame"].get<int>(), 0) << reloc.dump();
+  constexpr double kMaxRelocErrorM = 0.05;
+  ASSERT_TRUE(reloc["error_m"].is_number()) << reloc.dump();
+  EXPECT_LT(reloc["error_m"].get<double>(), kMaxRelocErrorM);
+  EXPECT_TRUE(fs::exists(dir + "/loc/trajectory_map.tum"));
+  EXPECT_NE(loc.output.find("relocalisation: frame 0 placed"), std::string::npos) << loc.output;
+  const RunResult no_map =
+      run("run " + dir + "/s.rawlog -o " + dir + "/nomap -q --no-pictures --localize-only");
+  EXPECT_EQ(no_map.exit_code, 1);
+  EXPECT_NE(no_map.error.find("--localize-only needs --map"), std::string::npos) << no_map.error;
   // A file that is not a store: refused, unchanged.
   { std::ofstream(dir + "/notes.txt") << "not a map\n"; }
   const RunResult bad = run("run " + dir + "/s.rawlog -o " + dir + "/out3 -q --no-pictures --map " +

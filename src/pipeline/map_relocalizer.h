@@ -1,0 +1,82 @@
+#pragma once
+/// Localising a run in a saved map (`twocam run LOG --map MAP.db --localize-only`, issue 25
+/// part 4): each frame, until one is placed, the frame's stereo points (the best, left-right
+/// consistent hypothesis of each corner) with their descriptors are matched to the map's
+/// landmarks and the pose solved and verified (localization/relocalize.h). The run's first
+/// placed frame gives T_m_o, the run's world frame in the map's; from then on every pose of the
+/// run is also given in the map frame (T_m_b = T_m_o T_o_b). The map is read only.
+///
+/// Not yet: handing the stored landmarks back to the tracker after relocalisation (the run
+/// keeps localising on its own landmarks from there, so its drift relative to the map is not
+/// corrected), and merging the run into the map.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/rig.h"
+#include "common/status.h"
+#include "frontend/descriptors.h"
+#include "io/trajectory.h"
+#include "localization/relocalize.h"
+#include "pipeline/run.h"
+
+namespace twocam::pipeline {
+
+struct MapRelocalizerOptions {
+  localization::RelocalizationOptions relocalization;
+  /// The descriptor the map's landmarks were recorded with (MapRecorderOptions::descriptors).
+  frontend::DescriptorOptions descriptors;
+  [[nodiscard]] Status validate() const;
+};
+
+/// What relocalisation did over the run.
+struct RelocalizationReport {
+  /// First frame placed in the map (log index), -1 when none.
+  int32_t frame = -1;
+  /// Frames tried up to and including that one (all processed frames when never placed).
+  int attempts = 0;
+  /// The placed frame's pose in the map and the relocalisation's evidence.
+  Eigen::Isometry3d T_m_b = Eigen::Isometry3d::Identity();
+  int inliers = 0;
+  int verified = 0;
+  double verified_fraction = 0.0;
+  /// Why the last failed attempt failed (localization::RelocalizationResult::reason).
+  std::string last_reason;
+  /// The map's landmarks with a descriptor of the configured kind.
+  int64_t map_landmarks = 0;
+  /// Per attempt: relocalize() time [ms].
+  std::vector<double> attempt_ms;
+  /// The run's poses in the map frame from the placed frame on.
+  std::vector<io::TimedPose> map_track;
+};
+
+class MapRelocalizer {
+ public:
+  /// Reads the map at `path` (read only: the file is never written). Errors: the store refuses
+  /// it, or none of its landmarks has a descriptor of options.descriptors.kind.
+  static Status open(const std::string& path,
+                     const StereoRig& rig,
+                     const MapRelocalizerOptions& options,
+                     std::unique_ptr<MapRelocalizer>* out);
+
+  /// After each processed frame (RunCallbacks::on_frame).
+  Status addFrame(const RunFrame& frame);
+  [[nodiscard]] const RelocalizationReport& report() const { return report_; }
+
+ private:
+  MapRelocalizer() = default;
+
+  StereoRig rig_;
+  MapRelocalizerOptions options_;
+  std::vector<localization::MapLandmark> map_;
+  bool placed_ = false;
+  Eigen::Isometry3d T_m_o_ = Eigen::Isometry3d::Identity();
+  RelocalizationReport report_;
+};
+
+/// The descriptor kind as stored (StoredLandmark::descriptor_kind): 0 = none, 1 + the kind.
+uint8_t storedDescriptorKind(frontend::DescriptorKind kind);
+
+}  // namespace twocam::pipeline
