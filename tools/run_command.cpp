@@ -126,7 +126,14 @@ int runRun(const RunArgs& args) {
     }
     return evaluator.addFrame(f);
   };
-  pipeline::RunCallbacks callbacks{warn, on_frame, [&](int frames) { progress.update(frames); }};
+  // After the placed frame, the map's landmarks join the tracker (MapRelocalizer).
+  const bool restore = std::getenv("TWOCAM_NO_RESTORE") == nullptr;
+  const auto between_frames = [&](pipeline::Pipeline* pipe) {
+    if (relocalizer && restore) pipe->restoreLandmarks(relocalizer->takeLandmarksToRestore());
+    return Status::ok();
+  };
+  pipeline::RunCallbacks callbacks{
+      warn, on_frame, [&](int frames) { progress.update(frames); }, between_frames};
   if (Status s =
           run.execute(pipeline::frameSource(*reader), args.log_path, args.max_frames, callbacks);
       !s)

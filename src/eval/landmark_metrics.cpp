@@ -312,6 +312,12 @@ LandmarkMetrics LandmarkEvaluator::finish(const std::vector<landmarks::Landmark>
                   {"textured", kFaintTextureGrey, kInf}};
   for (const landmarks::Landmark& l : slots) {
     if (l.state == landmarks::LandmarkState::kFree) continue;
+    // Not created in this run (a saved map's, LandmarkDatabase::restoreConfirmed): no anchor
+    // to judge it at; counted apart.
+    if (anchors_.find(l.id) == anchors_.end()) {
+      ++m.restored;
+      continue;
+    }
     const int v = verdict(l);
     if (v >= 0) {
       for (CalibrationRow& r : rows) {
@@ -413,6 +419,7 @@ io::Json toJson(const LandmarkMetrics& m) {
                     {"map_error_median_m", numberOrNull(m.map_error_median_m)},
                     {"map_error_p90_m", numberOrNull(m.map_error_p90_m)},
                     {"duplicate_fraction", numberOrNull(m.duplicate_fraction)},
+                    {"restored", m.restored},
                     {"duplicates", m.duplicates},
                     {"confirmations_judged", m.confirmations_judged},
                     {"frames_to_confirm_median", numberOrNull(m.frames_to_confirm_median)}};

@@ -112,6 +112,9 @@ struct LandmarkMetrics {
   double duplicate_fraction = 0.0;
   double frames_to_confirm_median = 0.0;
   int64_t candidates = 0;
+  /// Live landmarks not created in this run (a saved map's, handed to the tracker after
+  /// relocalisation): not judged, not in the counts above or below.
+  int64_t restored = 0;
   std::vector<CalibrationRow> calibration;
   /// Confirmed landmarks by the texture at their anchor: plain, faint, textured.
   std::vector<TextureRow> by_texture;

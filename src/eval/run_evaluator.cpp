@@ -291,6 +291,7 @@ io::Json relocalizationJson(const pipeline::RelocalizationReport& r,
     return j;
   }
   j["inliers"] = r.inliers;
+  j["restored_landmarks"] = r.restored;
   j["verified"] = r.verified;
   j["verified_fraction"] = numberOrNull(r.verified_fraction);
   const int64_t t = r.map_track.front().t_ns;

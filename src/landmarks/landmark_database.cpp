@@ -843,6 +843,35 @@ void LandmarkDatabase::confirm(uint32_t slot, FrameReport* report) {
   }
 }
 
+void LandmarkDatabase::restoreConfirmed(const std::vector<Eigen::Vector3d>& p_w,
+                                        std::vector<uint64_t>* ids) {
+  TWOCAM_CHECK(frame_hyps_ == nullptr) << "restoreConfirmed inside a frame";
+  for (const Eigen::Vector3d& p : p_w) {
+    if (!p.allFinite()) continue;
+    const uint32_t slot = allocateSlot();
+    Landmark& l = slots_[slot];
+    l.state = LandmarkState::kConfirmed;
+    hot_[slot].state = LandmarkState::kConfirmed;
+    l.p_w = l.p_w_last = p;
+    hot_[slot].p_w_last = p;
+    Eigen::Vector3d uvd = Eigen::Vector3d::Zero();
+    if (!projectStereo(rig_, T_cl_w_ * p, &uvd)) uvd.setZero();
+    l.anchor.frame = frame_;
+    l.anchor.u_px = static_cast<float>(uvd.x());
+    l.anchor.v_px = static_cast<float>(uvd.y());
+    l.anchor.d_px = static_cast<float>(uvd.z());
+    l.anchor.odom_pose = pose_;
+    l.first_frame = l.confirmed_frame = l.last_seen_frame = frame_;
+    l.first_t_ns = t_ns_;
+    l.path_at_last_seen_m = path_m_;
+    l.turn_at_last_seen_rad = turn_rad_;
+    l.confidence = 1.0f;
+    policy_->onConfirmed(slot);
+    ++num_confirmed_;
+    if (ids != nullptr) ids->push_back(l.id);
+  }
+}
+
 void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
   const double fb = rig_.fx_px * rig_.baseline_m;
   for (uint32_t pi = 0; pi < hyps.points.size(); ++pi) {

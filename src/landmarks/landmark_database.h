@@ -169,6 +169,13 @@ class LandmarkDatabase final : public AnchorPoses {
     return confirmed_obs_;
   }
 
+  /// Between frames (after finishFrame): adds confirmed landmarks at these world positions, as
+  /// if seen in the last frame (their gates start from its pose), e.g. a saved map's landmarks
+  /// after relocalisation in it (pipeline/map_relocalizer.h). Their anchor is their projection in
+  /// the last frame's left camera (zeros when out of view); they have no observations.
+  /// Appends their ids to *ids when given. The max_confirmed cap applies at the next frame.
+  void restoreConfirmed(const std::vector<Eigen::Vector3d>& p_w, std::vector<uint64_t>* ids);
+
   /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
   [[nodiscard]] const Landmark* find(uint64_t id) const;
 

@@ -51,6 +51,17 @@ Status MapRelocalizer::open(const std::string& path,
   return Status::ok();
 }
 
+std::vector<Eigen::Vector3d> MapRelocalizer::takeLandmarksToRestore() {
+  std::vector<Eigen::Vector3d> p_o;
+  if (!placed_ || restored_) return p_o;
+  restored_ = true;
+  const Eigen::Isometry3d T_o_m = T_m_o_.inverse();
+  p_o.reserve(map_.size());
+  for (const localization::MapLandmark& l : map_) p_o.push_back(T_o_m * l.p_m);
+  report_.restored = static_cast<int64_t>(p_o.size());
+  return p_o;
+}
+
 Status MapRelocalizer::addFrame(const RunFrame& frame) {
   const Eigen::Isometry3d T_o_b = toIsometry(frame.output.pose);
   if (placed_) {

@@ -6,9 +6,9 @@
 /// placed frame gives T_m_o, the run's world frame in the map's; from then on every pose of the
 /// run is also given in the map frame (T_m_b = T_m_o T_o_b). The map is read only.
 ///
-/// Not yet: handing the stored landmarks back to the tracker after relocalisation (the run
-/// keeps localising on its own landmarks from there, so its drift relative to the map is not
-/// corrected), and merging the run into the map.
+/// After placement the map's landmarks join the run's tracker (takeLandmarksToRestore), so that
+/// the run localises on them and the map corrects its drift. Not yet: merging the run into the
+/// map.
 
 #include <cstdint>
 #include <memory>
@@ -50,6 +50,8 @@ struct RelocalizationReport {
   std::vector<double> attempt_ms;
   /// The run's poses in the map frame from the placed frame on.
   std::vector<io::TimedPose> map_track;
+  /// Map landmarks handed to the run's tracker after placement.
+  int64_t restored = 0;
 };
 
 class MapRelocalizer {
@@ -64,6 +66,10 @@ class MapRelocalizer {
   /// After each processed frame (RunCallbacks::on_frame).
   Status addFrame(const RunFrame& frame);
   [[nodiscard]] const RelocalizationReport& report() const { return report_; }
+  /// Once, after the frame that was placed (RunCallbacks::between_frames): the map's landmarks
+  /// in the run's world frame (p_o = T_m_o^-1 p_m), handed to the tracker so that the run
+  /// localises on the map from there (Pipeline::restoreLandmarks). Empty otherwise.
+  std::vector<Eigen::Vector3d> takeLandmarksToRestore();
 
  private:
   MapRelocalizer() = default;
@@ -72,6 +78,7 @@ class MapRelocalizer {
   MapRelocalizerOptions options_;
   std::vector<localization::MapLandmark> map_;
   bool placed_ = false;
+  bool restored_ = false;
   Eigen::Isometry3d T_m_o_ = Eigen::Isometry3d::Identity();
   RelocalizationReport report_;
 };

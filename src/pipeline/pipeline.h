@@ -99,6 +99,14 @@ class Pipeline {
                            const StereoHypotheses& hypotheses,
                            FrameOutput* out);
 
+  /// Between frames: confirmed landmarks at these positions in the run's world frame join the
+  /// database (landmarks::LandmarkDatabase::restoreConfirmed); returns their ids.
+  std::vector<uint64_t> restoreLandmarks(const std::vector<Eigen::Vector3d>& p_w) {
+    std::vector<uint64_t> ids;
+    db_.restoreConfirmed(p_w, &ids);
+    return ids;
+  }
+
   [[nodiscard]] const frontend::Frontend& frontend() const { return frontend_; }
   [[nodiscard]] const landmarks::LandmarkDatabase& database() const { return db_; }
   [[nodiscard]] const mapping::OccupancyMapper& mapper() const { return mapper_; }

@@ -97,6 +97,9 @@ Status Run::execute(const FrameSource& next,
       if (Status cs = callbacks.on_frame(RunFrame{frame, fo, pipe_, s.odometry_mode}); !cs)
         return cs;
     }
+    if (callbacks.between_frames) {
+      if (Status cs = callbacks.between_frames(&pipe_); !cs) return cs;
+    }
     s.records.push_back({frame.index,
                          fo.times,
                          corners,

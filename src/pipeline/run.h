@@ -87,6 +87,9 @@ struct RunCallbacks {
   std::function<Status(const RunFrame&)> on_frame;
   /// After each frame read, with the number read so far.
   std::function<void(int)> progress;
+  /// After on_frame, before the next frame: may change the pipeline between frames (e.g. hand
+  /// it a saved map's landmarks, Pipeline::restoreLandmarks). An error stops the run.
+  std::function<Status(Pipeline*)> between_frames;
 };
 
 /// Reads the next frame into *frame; false at the end, with *status saying whether the end was

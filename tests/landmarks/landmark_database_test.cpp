@@ -858,5 +858,31 @@ TEST(LandmarkDatabase, ConfirmedLandmarkReclaimsItsCornerFromAnAmbiguousGate) {
   }
 }
 
+TEST(LandmarkDatabase, RestoredLandmarksAreConfirmedAndReassociated) {
+  // A saved map's landmark handed back between frames (restoreConfirmed) is confirmed at once
+  // and takes its corner in the next frame instead of a new candidate being seeded there.
+  const StereoRig rig = SyntheticStream::defaultRig();
+  LandmarkDatabase db(rig, LandmarkOptions());
+  FrameReport report;
+  Pose2 pose;
+  ASSERT_TRUE(db.update(0, 0, pose, StereoHypotheses(), &report).isOk());
+  const Eigen::Vector3d uvd(300.0, 200.0, 25.0);
+  const Eigen::Vector3d p_w =
+      cameraPoseInWorld(pose, rig.T_b_cl) * *triangulateRectified(rig, uvd.head<2>(), uvd.z());
+  std::vector<uint64_t> ids;
+  db.restoreConfirmed({p_w, Eigen::Vector3d(std::nan(""), 0.0, 0.0)}, &ids);
+  ASSERT_EQ(ids.size(), 1u) << "a non-finite position is skipped";
+  EXPECT_EQ(db.numConfirmed(), 1);
+  ASSERT_NE(db.find(ids[0]), nullptr);
+  EXPECT_EQ(db.find(ids[0])->state, LandmarkState::kConfirmed);
+  pose.x_m = 0.02;
+  Eigen::Vector3d next;
+  ASSERT_TRUE(projectStereo(rig, cameraPoseInWorld(pose, rig.T_b_cl).inverse() * p_w, &next));
+  ASSERT_TRUE(db.update(1, 66'666'667, pose, lonePoint(next), &report).isOk());
+  EXPECT_EQ(report.hypothesis_landmark_id[0], ids[0]);
+  EXPECT_EQ(report.seeded, 0);
+  EXPECT_EQ(db.find(ids[0])->last_seen_frame, 1);
+}
+
 }  // namespace
 }  // namespace twocam::landmarks

@@ -70,13 +70,18 @@ struct Calls {
   std::vector<std::string> warnings;
   std::vector<int> frames_seen;
   std::vector<int> progress;
+  int between = 0;  // between_frames calls
   RunCallbacks callbacks() {
     return {[this](const std::string& w) { warnings.push_back(w); },
             [this](const RunFrame& f) {
               frames_seen.push_back(f.log.index);
               return Status::ok();
             },
-            [this](int n) { progress.push_back(n); }};
+            [this](int n) { progress.push_back(n); },
+            [this](Pipeline* /*pipe*/) {
+              ++between;
+              return Status::ok();
+            }};
   }
 };
 
@@ -97,6 +102,7 @@ TEST(PipelineRun, SkipsFramesWithoutOdometryOrRefusedByTheDatabase) {
   EXPECT_NE(calls.warnings[0].find("skipping frame 2"), std::string::npos) << calls.warnings[0];
   EXPECT_NE(calls.warnings[1].find("skipping"), std::string::npos) << calls.warnings[1];
   EXPECT_EQ(calls.frames_seen, (std::vector<int>{0, 1, 3, 5}));
+  EXPECT_EQ(calls.between, 4) << "once after each processed frame";
   EXPECT_EQ(calls.progress, (std::vector<int>{1, 2, 3, 4, 5, 6}));
   ASSERT_EQ(s.records.size(), 4u);
   EXPECT_EQ(s.records[2].frame, 3);

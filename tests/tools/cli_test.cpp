@@ -568,6 +568,8 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
   ASSERT_TRUE(reloc["error_m"].is_number()) << reloc.dump();
   EXPECT_LT(reloc["error_m"].get<double>(), kMaxRelocErrorM);
   EXPECT_TRUE(fs::exists(dir + "/loc/trajectory_map.tum"));
+  // The map's landmarks joined the run's tracker after placement.
+  EXPECT_GT(reloc["restored_landmarks"].get<int64_t>(), 0) << reloc.dump();
   EXPECT_NE(loc.output.find("relocalisation: frame 0 placed"), std::string::npos) << loc.output;
   const RunResult no_map =
       run("run " + dir + "/s.rawlog -o " + dir + "/nomap -q --no-pictures --localize-only");
