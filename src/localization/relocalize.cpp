@@ -66,6 +66,16 @@ class PointGrid {
   std::unordered_map<int64_t, std::vector<uint32_t>> cells_;
 };
 
+/// 1 / |v| of a patch descriptor's int8 vector (0 for a zero vector).
+double inversePatchNorm(const frontend::Descriptor& d) {
+  int32_t n = 0;
+  for (int k = 0; k < frontend::kPatchGrid * frontend::kPatchGrid; ++k) {
+    const int32_t x = static_cast<int8_t>(d.bytes[static_cast<size_t>(k)]);
+    n += x * x;
+  }
+  return n > 0 ? 1.0 / std::sqrt(static_cast<double>(n)) : 0.0;
+}
+
 Eigen::Isometry3d fromRvecTvec(const cv::Mat& rvec, const cv::Mat& tvec) {
   cv::Mat R;
   cv::Rodrigues(rvec, R);
@@ -152,23 +162,16 @@ Status relocalize(const StereoRig& rig,
   // 1. Matching with the ratio test against the best landmark of another place. The patch's
   // 1 - NCC uses norms computed once per descriptor (same value as descriptorDistance).
   std::vector<double> inv_norm;
-  auto patchNorm = [](const frontend::Descriptor& d) {
-    int32_t n = 0;
-    for (int k = 0; k < frontend::kPatchGrid * frontend::kPatchGrid; ++k) {
-      const int32_t x = static_cast<int8_t>(d.bytes[static_cast<size_t>(k)]);
-      n += x * x;
-    }
-    return n > 0 ? 1.0 / std::sqrt(static_cast<double>(n)) : 0.0;
-  };
+
   if (kind == frontend::DescriptorKind::kPatch) {
     inv_norm.reserve(map.size());
-    for (const MapLandmark& l : map) inv_norm.push_back(patchNorm(l.descriptor));
+    for (const MapLandmark& l : map) inv_norm.push_back(inversePatchNorm(l.descriptor));
   }
   std::vector<Candidate> best(kCandidates);
   for (size_t i = 0; i < frame.size(); ++i) {
     std::fill(best.begin(), best.end(), Candidate{});
     const frontend::Descriptor& fd = frame[i].descriptor;
-    const double inv_norm_f = kind == frontend::DescriptorKind::kPatch ? patchNorm(fd) : 0.0;
+    const double inv_norm_f = kind == frontend::DescriptorKind::kPatch ? inversePatchNorm(fd) : 0.0;
     std::array<int8_t, frontend::kMaxDescriptorBytes> fq{};
     for (size_t k = 0; k < fq.size(); ++k) fq[k] = static_cast<int8_t>(fd.bytes[k]);
     for (size_t j = 0; j < map.size(); ++j) {

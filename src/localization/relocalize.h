@@ -87,7 +87,7 @@ struct RelocalizationOptions {
   int image_margin_px = 16;
   /// Fewest verified frame points (besides the inliers), and the fewest verified_fraction.
   int min_verified = 10;
-  double min_verified_fraction = 0.3;
+  double min_verified_fraction = 0.2;
 
   [[nodiscard]] Status validate(const char* prefix = "relocalization.") const;
 };

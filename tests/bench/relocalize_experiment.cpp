@@ -13,6 +13,7 @@
 // Usage: relocalize_experiment WORLDS_DIR [trials]   (prints one table per world)
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -53,9 +54,9 @@ const DescriptorKind kKinds[] = {DescriptorKind::kOrb, DescriptorKind::kPatch};
 /// The frame's stereo points (best hypothesis, left-right consistent) with both descriptors.
 struct FramePoints {
   std::vector<Eigen::Vector3d> uvd;
-  std::vector<RelocalizationPoint> points[2];  // per kind; uvd index in `index`
-  std::vector<size_t> index[2];
-  double describe_ms[2] = {0.0, 0.0};
+  std::array<std::vector<RelocalizationPoint>, 2> points;  // per kind; uvd index in `index`
+  std::array<std::vector<size_t>, 2> index;
+  std::array<double, 2> describe_ms{};
 };
 
 FramePoints framePoints(twocam::frontend::Frontend* frontend, const twocam::StereoFrame& frame) {
@@ -116,7 +117,7 @@ std::unique_ptr<twocam::sim::Simulator> simulator(const twocam::sim::World& worl
 
 struct WorldMap {
   StereoRig rig;
-  std::vector<MapLandmark> landmarks[2];
+  std::array<std::vector<MapLandmark>, 2> landmarks;  // per kind
   /// Frames kept for the wrong-place check (every kWrongPlaceStep-th frame of log 1).
   std::vector<FramePoints> probe_frames;
 };
@@ -302,7 +303,7 @@ void runWorld(const std::string& name,
         if (wrong[kind]) {
           std::printf(
               "    %s accepted a wrong pose at frame %d: %.3f m, %.2f deg off; %d inliers, "
-              "%d agree, %d/%d verified (fraction %.2f)\n",
+              "%d agree, %d/%d verified (fraction %.2f), position sigma %.3f m\n",
               kind == 0 ? "orb" : "patch",
               first[kind],
               e_m,

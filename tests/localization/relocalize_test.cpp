@@ -62,9 +62,14 @@ struct Scene {
   std::vector<RelocalizationPoint> frame;
 };
 
-/// A random map of `n` landmarks in front of T_m_cl (2-8 m deep, in view) plus as many out of
-/// view, and the frame that T_m_cl sees of it, with outlier matches and repeated descriptors.
-Scene makeScene(uint64_t seed, int n, const Eigen::Isometry3d& T_m_cl) {
+/// A random map of `n` landmarks in front of T_m_cl (2-8 m deep by default, in view) plus as many
+/// out of view, and the frame that T_m_cl sees of it, with outlier matches and repeated
+/// descriptors.
+Scene makeScene(uint64_t seed,
+                int n,
+                const Eigen::Isometry3d& T_m_cl,
+                double min_depth_m = 2.0,
+                double max_depth_m = 8.0) {
   const StereoRig rig = testRig();
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
@@ -74,7 +79,7 @@ Scene makeScene(uint64_t seed, int n, const Eigen::Isometry3d& T_m_cl) {
   for (int i = 0; i < n; ++i) {
     const double u = 20.0 + uni(rng) * (rig.width_px - 40.0);
     const double v = 20.0 + uni(rng) * (rig.height_px - 40.0);
-    const double z = 2.0 + 6.0 * uni(rng);
+    const double z = min_depth_m + (max_depth_m - min_depth_m) * uni(rng);
     const Eigen::Vector3d p_cl((u - rig.cx_px) / rig.fx_px * z, (v - rig.cy_px) / rig.fy_px * z, z);
     s.map.push_back({static_cast<uint64_t>(i), T_m_cl * p_cl, randomOrb(&rng)});
   }
@@ -154,6 +159,21 @@ TEST(Relocalize, RefusesAFrameOfAnotherPlace) {
   ASSERT_TRUE(relocalize(testRig(), lookalike, home.map, RelocalizationOptions(), &r).isOk());
   EXPECT_GE(r.matches.size(), 50u) << "the descriptors match";
   EXPECT_FALSE(r.found) << r.inliers << " inliers, " << r.verified << " verified";
+}
+
+TEST(Relocalize, RefusesAViewOfOnlyFarPointsAsPoorlyConstrained) {
+  // 40-60 m away (disparities 1-1.5 px): the rotation is fixed, the range is not.
+  const Scene s = makeScene(6, 200, trueCameraPose(), 40.0, 60.0);
+  RelocalizationResult r;
+  ASSERT_TRUE(relocalize(testRig(), s.frame, s.map, RelocalizationOptions(), &r).isOk());
+  EXPECT_FALSE(r.found);
+  EXPECT_GT(r.position_sigma_m, RelocalizationOptions().max_position_sigma_m);
+  EXPECT_NE(r.reason.find("poorly constrained"), std::string::npos) << r.reason;
+  // The same scene at 2-8 m: well constrained.
+  const Scene near = makeScene(6, 200, trueCameraPose());
+  ASSERT_TRUE(relocalize(testRig(), near.frame, near.map, RelocalizationOptions(), &r).isOk());
+  EXPECT_TRUE(r.found) << r.reason;
+  EXPECT_LT(r.position_sigma_m, RelocalizationOptions().max_position_sigma_m);
 }
 
 TEST(Relocalize, SameSeedSameResult) {
