@@ -819,12 +819,12 @@ TEST(LandmarkDatabase, ConfirmedLandmarkReclaimsItsCornerFromAnAmbiguousGate) {
     Pose2 pose;
     int32_t frame = 0;
     uint64_t id = 0;
+    // The same world point each frame, projected from that frame's pose.
+    const Eigen::Vector3d p_w =
+        cameraPoseInWorld(Pose2{}, rig.T_b_cl) * *triangulateRectified(rig, uvd.head<2>(), uvd.z());
     for (; frame < 40 && db.numConfirmed() == 0; ++frame) {
       pose.x_m = 0.02 * frame;
       const Eigen::Isometry3d T_w_cl = cameraPoseInWorld(pose, rig.T_b_cl);
-      // The same world point each frame: project it from this pose.
-      static const Eigen::Vector3d p_w = cameraPoseInWorld(Pose2{}, rig.T_b_cl) *
-                                         *triangulateRectified(rig, uvd.head<2>(), uvd.z());
       Eigen::Vector3d uvd_k;
       ASSERT_TRUE(projectStereo(rig, T_w_cl.inverse() * p_w, &uvd_k));
       ASSERT_TRUE(db.update(frame, frame * 66'666'667LL, pose, lonePoint(uvd_k), &report).isOk());
