@@ -14,6 +14,12 @@ uint8_t storedDescriptorKind(frontend::DescriptorKind kind) {
 }
 
 Status MapRelocalizerOptions::validate() const {
+  if (every_frame_attempts < 0 || later_attempt_stride < 1) {
+    return Status::error("relocalizer: every_frame_attempts " +
+                         std::to_string(every_frame_attempts) + " (must be >= 0) and " +
+                         "later_attempt_stride " + std::to_string(later_attempt_stride) +
+                         " (must be >= 1)");
+  }
   if (Status s = relocalization.validate(); !s) return s;
   return descriptors.validate();
 }
@@ -68,6 +74,10 @@ Status MapRelocalizer::addFrame(const RunFrame& frame) {
     report_.map_track.push_back({frame.log.stereo.t_ns, T_m_o_ * T_o_b});
     return Status::ok();
   }
+  const int seen = frames_seen_++;
+  if (seen >= options_.every_frame_attempts &&
+      (seen - options_.every_frame_attempts) % options_.later_attempt_stride != 0)
+    return Status::ok();
   // The frame's stereo points: each corner's first (cheapest) hypothesis when left-right
   // consistent.
   const StereoHypotheses& hyps = frame.pipeline.hypotheses();
