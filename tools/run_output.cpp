@@ -30,6 +30,20 @@ int framesToRun(const std::string& log_path, std::optional<int> max_frames) {
   return n > 0 ? std::min(*max_frames, n) : *max_frames;
 }
 
+std::string writtenFiles(const eval::RunOutputs& outputs, const pipeline::Run& run) {
+  std::string written = "metrics.json, timing.json";
+  if (run.summary().odometry_mode) written += ", map.bt";
+  std::string last_dir;
+  for (const auto& [path, content] : outputs.text_files) {
+    const std::string dir =
+        path.find('/') == std::string::npos ? "" : path.substr(0, path.find('/'));
+    if (!dir.empty() && dir == last_dir) continue;
+    last_dir = dir;
+    written += ", " + (dir.empty() ? path : dir + "/");
+  }
+  return written;
+}
+
 Status writeRunOutputs(const eval::RunOutputs& outputs,
                        const pipeline::Run& run,
                        io::RunWriter* writer) {

@@ -22,6 +22,10 @@ int framesToRun(const std::string& log_path, std::optional<int> max_frames);
                                      const pipeline::Run& run,
                                      io::RunWriter* writer);
 
+/// The files a run wrote, in order, for the CLI's last line: "metrics.json, timing.json, ...";
+/// a folder's files as the folder ("sample_frame/").
+std::string writtenFiles(const eval::RunOutputs& outputs, const pipeline::Run& run);
+
 /// Runs scripts/plot_run.py on the output folder. Pictures are a convenience: failing to draw
 /// them is a warning, the run's data are already written.
 void drawPictures(const std::string& output_dir);

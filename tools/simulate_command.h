@@ -27,13 +27,6 @@ struct SimulateArgs {
   bool quiet = false;
 };
 
-/// "<dir>/<stem>.world.yaml" for a log "<dir>/<stem>.rawlog": the copy of the world file that
-/// `twocam simulate` writes beside its log, read back by `twocam run` for the map evaluation.
-std::string worldSidecarPath(const std::string& log_path);
-
-/// Top-down outline of every shape as polylines: CSV "shape,name,kind,x_m,y_m".
-std::string worldOutlineCsv(const sim::World& world);
-
 /// Runs `twocam simulate`. Returns the process exit code (0 ok, 1 error); errors go to stderr.
 int runSimulate(const SimulateArgs& args);
 

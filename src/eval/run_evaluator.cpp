@@ -10,6 +10,7 @@
 #include "eval/disparity_io.h"
 #include "eval/trajectory_metrics.h"
 #include "landmarks/landmark_model.h"
+#include "sim/world_files.h"
 
 namespace twocam::eval {
 namespace {
@@ -272,48 +273,6 @@ Json revisitsJson(const std::vector<io::TimedPose>& gt, const pipeline::RunSumma
 }
 
 }  // namespace
-
-io::Json relocalizationJson(const pipeline::RelocalizationReport& r,
-                            const std::vector<io::TimedPose>& truth) {
-  using io::Json;
-  using io::numberOrNull;
-  std::vector<double> ms = r.attempt_ms;
-  Json j = {{"frame", r.frame},
-            {"attempts", r.attempts},
-            {"map_landmarks", r.map_landmarks},
-            {"attempt_ms_median", ms.empty() ? Json(nullptr) : numberOrNull(quantile(ms, 0.5))},
-            {"error_m", nullptr},
-            {"error_deg", nullptr},
-            {"ate_rmse_m", nullptr}};
-  if (r.frame < 0) {
-    j["absent"] = "never relocalised (last attempt: " +
-                  (r.last_reason.empty() ? std::string("none") : r.last_reason) + ")";
-    return j;
-  }
-  j["inliers"] = r.inliers;
-  j["restored_landmarks"] = r.restored;
-  j["verified"] = r.verified;
-  j["verified_fraction"] = numberOrNull(r.verified_fraction);
-  const int64_t t = r.map_track.front().t_ns;
-  const auto it =
-      std::find_if(truth.begin(), truth.end(), [t](const io::TimedPose& p) { return p.t_ns == t; });
-  if (it == truth.end()) {
-    j["absent"] = "the log has no true pose at the relocalised frame";
-    return j;
-  }
-  const Eigen::Isometry3d E = it->T_w_b.inverse() * r.T_m_b;
-  j["error_m"] = numberOrNull((r.T_m_b.translation() - it->T_w_b.translation()).norm());
-  j["error_deg"] = numberOrNull(Eigen::AngleAxisd(E.linear()).angle() * 180.0 / M_PI);
-  // The true poses of the map track's frames (from the placed frame on).
-  const std::vector<io::TimedPose> truth_from(it, truth.end());
-  double ate = 0.0;
-  if (Status s = ateRmseM(r.map_track, truth_from, &ate); s) {
-    j["ate_rmse_m"] = numberOrNull(ate);
-  } else {
-    j["ate_absent"] = s.message();
-  }
-  return j;
-}
 
 RunEvaluator::RunEvaluator(const StereoRig& rig,
                            const pipeline::PipelineConfig& config,
@@ -713,6 +672,10 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   } else if (s.odometry_mode) {
     sum << "map: " << voxels.size() << " occupied voxels at " << resolution_m << " m\n";
   }
+  m["odometry_synthetic"] = inputs_.synthetic_odometry.has_value();
+  if (inputs_.synthetic_odometry)
+    sum << "odometry: SYNTHETIC (" << *inputs_.synthetic_odometry << ")\n";
+  if (map_built) files.emplace_back("world_outline.csv", sim::worldOutlineCsv(*inputs_.world));
   out->summary = sum.str();
   return Status::ok();
 }

@@ -27,7 +27,6 @@
 #include "io/trajectory.h"
 #include "mapping/occupancy_mapper.h"
 #include "pipeline/config.h"
-#include "pipeline/map_relocalizer.h"
 #include "pipeline/run.h"
 #include "sim/world.h"
 
@@ -52,15 +51,6 @@ struct RunOutputs {
   bool sample_taken = false;
 };
 
-/// metrics.json `relocalization` (`--localize-only`, pipeline/map_relocalizer.h): `frame` (first
-/// frame placed in the map, -1 when never), `attempts`, `map_landmarks`, the placement's
-/// `inliers`, `verified` and `verified_fraction`, `attempt_ms_median`, and against the log's true
-/// poses (the map frame being the true world frame of the run that built it) `error_m`,
-/// `error_deg` at the placed frame and `ate_rmse_m` of the run's track in the map frame from
-/// there; each absent (null) with `absent` saying why when it cannot be computed.
-io::Json relocalizationJson(const pipeline::RelocalizationReport& report,
-                            const std::vector<io::TimedPose>& truth);
-
 class RunEvaluator {
  public:
   struct Inputs {
@@ -71,6 +61,11 @@ class RunEvaluator {
     std::string world_absent;
     /// Frame index drawn in sample_frame/ (the first processed frame at or after it).
     int sample_frame = 0;
+    /// What made the log's odometry when no wheel measured it (`twocam import-kitti
+    /// --synthetic-odometry`, io::RawlogReader::syntheticOdometry): metrics.json
+    /// `odometry_synthetic` and a summary line say so, so that results on it are not mistaken
+    /// for real odometry.
+    std::optional<std::string> synthetic_odometry;
   };
 
   RunEvaluator(const StereoRig& rig, const pipeline::PipelineConfig& config, Inputs inputs);
