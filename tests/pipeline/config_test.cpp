@@ -499,5 +499,32 @@ TEST(PipelineConfigDefaultFile, MatchesTheDefaults) {
       << " is stale; regenerate: TWOCAM_REGENERATE_CONFIGS=1 ctest -R PipelineConfigDefaultFile";
 }
 
+TEST(PipelineConfigShippedFiles, KittiConfigScalesTheDefaultOdometryNoiseAndTheMap) {
+  // configs/kitti.yaml: the default odometry noise model x3 (the synthetic KITTI odometry is the
+  // office noise x3) and a map for landmarks 6-60 m away; everything else the defaults.
+  const std::string path = test::sourceDir() + "/configs/kitti.yaml";
+  PipelineConfig kitti;
+  const Status s = loadConfigFile(path, &kitti);
+  ASSERT_TRUE(s.isOk()) << s.message();
+  ASSERT_TRUE(kitti.validate().isOk());
+  const PipelineConfig defaults;
+  const auto& k = kitti.landmarks.tracker.odometry_noise;
+  const auto& d = defaults.landmarks.tracker.odometry_noise;
+  constexpr double kScale = 3.0;
+  constexpr double kTol = 1e-12;
+  EXPECT_NEAR(k.trans_sigma_per_sqrt_m, kScale * d.trans_sigma_per_sqrt_m, kTol);
+  EXPECT_NEAR(k.trans_scale_sigma, kScale * d.trans_scale_sigma, kTol);
+  EXPECT_NEAR(k.rot_sigma_per_sqrt_rad, kScale * d.rot_sigma_per_sqrt_rad, kTol);
+  EXPECT_NEAR(k.rot_scale_sigma, kScale * d.rot_scale_sigma, kTol);
+  EXPECT_NEAR(k.rot_sigma_per_m, kScale * d.rot_sigma_per_m, kTol);
+  EXPECT_GT(kitti.mapping.max_range_m, 30.0);
+  // Nothing else differs from the defaults.
+  PipelineConfig rest = kitti;
+  rest.landmarks.tracker.odometry_noise = d;
+  rest.mapping.resolution_m = defaults.mapping.resolution_m;
+  rest.mapping.max_range_m = defaults.mapping.max_range_m;
+  EXPECT_EQ(toYaml(rest), toYaml(defaults));
+}
+
 }  // namespace
 }  // namespace twocam::pipeline
