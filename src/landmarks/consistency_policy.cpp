@@ -145,8 +145,8 @@ void ConsistencyPolicy::scoreFrame(const FrameOutcome& outcome,
     }
     if (st.group == 0) {
       // A confirmed landmark (no rivals left): plain log-odds with its prior.
-      const double mass = st.prior * std::exp(static_cast<double>(st.evidence));
-      l.confidence = static_cast<float>(mass / (mass + noneMass()));
+      l.confidence =
+          static_cast<float>(lonePosterior(st.prior, static_cast<double>(st.evidence), noneMass()));
     }
   }
   for (uint32_t g : groups_touched_) {

@@ -181,6 +181,12 @@ void normaliseRivals(const double* prior,
   for (int i = 0; i < n; ++i) probability[i] = denom > 0.0 ? probability[i] / denom : 0.0;
 }
 
+double lonePosterior(double prior, double evidence, double none_mass) {
+  const double mass = prior * std::exp(evidence);
+  if (!std::isfinite(mass)) return 1.0;
+  return mass / (mass + none_mass);
+}
+
 double parallaxAngle(const Eigen::Vector3d& p,
                      const Eigen::Vector3d& c1,
                      const Eigen::Vector3d& c2) {

@@ -121,6 +121,12 @@ void normaliseRivals(const double* prior,
                      double extra_mass,
                      double* probability);
 
+/// Existence probability of a landmark without rivals from its prior mass pi and evidence L:
+/// pi e^L / (pi e^L + none_mass). Evidence grows with every counted hit, so a landmark seen in a
+/// few hundred frames takes e^L beyond the range of a double; the probability is then 1 (the
+/// none mass is negligible), never inf / inf.
+double lonePosterior(double prior, double evidence, double none_mass);
+
 /// Angle [rad] at point p between the rays from camera centres c1 and c2 (0 when degenerate).
 double parallaxAngle(const Eigen::Vector3d& p,
                      const Eigen::Vector3d& c1,

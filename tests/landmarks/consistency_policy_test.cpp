@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include "support/synthetic_stream.h"
@@ -89,6 +90,32 @@ TEST(ConsistencyPolicy, ConfirmingOneRetiresItsRivals) {
   EXPECT_EQ(r.policy->state(1).group, 0u);
   r.policy->rivalsToRetire(0, &rivals);
   EXPECT_TRUE(rivals.empty());
+}
+
+TEST(ConsistencyPolicy, ALandmarkSeenInThousandsOfFramesKeepsAFiniteConfidence) {
+  // Each counted hit adds up to max_hit_evidence (1.5 nats): after ~500 hits prior * e^E is
+  // beyond a double's range and the confidence used to be inf / inf = NaN.
+  TwoRivals r;
+  r.policy->onRelease(1, r.slots[1]);
+  r.policy->onConfirmed(0);
+  r.slots[0].state = LandmarkState::kConfirmed;
+  constexpr int kFrames = 3000;
+  for (int k = 1; k <= kFrames; ++k) {
+    r.frame.frame += 1;
+    r.frame.path_m = 0.1 * k;
+    r.policy->beginFrame(r.slots.size());
+    std::vector<Prediction> predictions(1);
+    predictions[0].slot = 0;
+    predictions[0].confirmed = true;
+    predictions[0].p_false_hit_per_hyp = 0.01f;
+    const uint8_t associated[2] = {1, 0};
+    const uint8_t none[2] = {0, 0};
+    FrameOutcome outcome{&predictions, associated, none, none};
+    r.policy->scoreFrame(outcome, r.frame, &r.slots);
+    ASSERT_TRUE(std::isfinite(r.slots[0].confidence)) << "frame " << k;
+  }
+  EXPECT_GT(r.policy->state(0).evidence, 1000.0f);  // far beyond exp()'s range of a double
+  EXPECT_FLOAT_EQ(r.slots[0].confidence, 1.0f);
 }
 
 TEST(ConsistencyPolicy, DecidesOnProbabilityObservationsAndVerification) {
