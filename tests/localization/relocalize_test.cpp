@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -189,6 +190,68 @@ TEST(Relocalize, SameSeedSameResult) {
   EXPECT_EQ(a.verified, b.verified);
   ASSERT_EQ(a.matches.size(), b.matches.size());
   for (size_t k = 0; k < a.matches.size(); ++k) EXPECT_EQ(a.matches[k].inlier, b.matches[k].inlier);
+}
+
+TEST(Relocalize, OrbMatchesEqualABruteForceScanWithDescriptorDistance) {
+  // The matcher scans packed descriptors with the CPU's popcount; its matches must be exactly
+  // those of the rule written plainly: nearest landmark by frontend::descriptorDistance within
+  // max_orb_distance, and ratio * (nearest landmark of another place) above it.
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> pos(-5.0, 5.0);
+  constexpr int kMap = 3000;
+  constexpr int kFrame = 400;
+  std::vector<MapLandmark> map(kMap);
+  for (int j = 0; j < kMap; ++j) {
+    map[j].id = static_cast<uint64_t>(j);
+    map[j].p_m = Eigen::Vector3d(pos(rng), pos(rng), pos(rng));
+    map[j].descriptor = randomOrb(&rng);
+  }
+  // Half the frame points copy a landmark with 0-60 flipped bits (some twins of a nearby
+  // landmark, which the same-place rule must skip), half are random.
+  for (int j = 1; j < kMap; j += 50) {
+    map[j].descriptor = map[j - 1].descriptor;
+    map[j].p_m = map[j - 1].p_m + Eigen::Vector3d(0.01, 0.0, 0.0);
+  }
+  std::vector<RelocalizationPoint> frame(kFrame);
+  for (int i = 0; i < kFrame; ++i) {
+    frame[i].u_px = 10 + i;
+    frame[i].v_px = 20;
+    frame[i].d_px = 10.0;
+    if (i % 2 == 0) {
+      frame[i].descriptor = flipped(map[(i * 7) % kMap].descriptor, (i / 2) % 61, &rng);
+    } else {
+      frame[i].descriptor = randomOrb(&rng);
+    }
+  }
+  const RelocalizationOptions options;
+  RelocalizationResult result;
+  ASSERT_TRUE(relocalize(testRig(), frame, map, options, &result).isOk());
+
+  std::vector<std::pair<uint32_t, uint32_t>> expected;
+  for (int i = 0; i < kFrame; ++i) {
+    int best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < kMap; ++j) {
+      const double d = frontend::descriptorDistance(frame[i].descriptor, map[j].descriptor);
+      if (d < best_d) {
+        best_d = d;
+        best = j;
+      }
+    }
+    if (!(best_d <= options.max_orb_distance)) continue;
+    double second = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < kMap; ++j) {
+      if ((map[j].p_m - map[best].p_m).norm() <= options.same_place_m) continue;
+      second =
+          std::min(second, frontend::descriptorDistance(frame[i].descriptor, map[j].descriptor));
+    }
+    if (best_d < options.ratio * second)
+      expected.emplace_back(static_cast<uint32_t>(i), static_cast<uint32_t>(best));
+  }
+  std::vector<std::pair<uint32_t, uint32_t>> got;
+  for (const RelocalizationMatch& m : result.matches) got.emplace_back(m.point, m.landmark);
+  ASSERT_GT(expected.size(), 100u);
+  EXPECT_EQ(got, expected);
 }
 
 TEST(Relocalize, OptionsAndInputErrorsNameTheirKeys) {
