@@ -33,7 +33,78 @@ bool residualAt(const StereoResidual& f, const Eigen::Isometry3d& T, Eigen::Vect
   return f(q.coeffs().data(), t.data(), r->data());
 }
 
+/// The per-observation cost of the solve: StereoResidual with analytic Jacobians.
+class StereoCost final : public ceres::SizedCostFunction<3, 4, 3> {
+ public:
+  explicit StereoCost(const StereoResidual& f) : f_(f) {}
+  bool Evaluate(double const* const* parameters,
+                double* residuals,
+                double** jacobians) const override {
+    return stereoResidualWithJacobians(f_,
+                                       parameters[0],
+                                       parameters[1],
+                                       residuals,
+                                       jacobians != nullptr ? jacobians[0] : nullptr,
+                                       jacobians != nullptr ? jacobians[1] : nullptr);
+  }
+
+ private:
+  StereoResidual f_;
+};
+
 }  // namespace
+
+bool stereoResidualWithJacobians(const StereoResidual& f,
+                                 const double* q_w_b,
+                                 const double* t_w_b,
+                                 double* residual,
+                                 double* j_q,
+                                 double* j_t) {
+  // p_b = conj(q) * (p_w - t) by Eigen's formula for a unit quaternion (x, y, z, w) = (u, w):
+  // with a = -u (the conjugate's vector part), p_b = v + 2 w (a x v) + 2 a x (a x v).
+  const Eigen::Vector3d u(q_w_b[0], q_w_b[1], q_w_b[2]);
+  const double w = q_w_b[3];
+  const Eigen::Vector3d v = f.p_w - Eigen::Vector3d(t_w_b[0], t_w_b[1], t_w_b[2]);
+  const Eigen::Vector3d a = -u;
+  const Eigen::Vector3d axv = a.cross(v);
+  const Eigen::Vector3d p_b = v + 2.0 * w * axv + 2.0 * a.cross(axv);
+  const Eigen::Vector3d p_c = f.R_cl_b * p_b + f.t_cl_b;
+  if (!(p_c.z() > 1e-3)) return false;
+  const double inv_z = 1.0 / p_c.z();
+  residual[0] = (f.cx + f.fx * p_c.x() * inv_z - f.u) * f.inv_sigma_px;
+  residual[1] = (f.cy + f.fy * p_c.y() * inv_z - f.v) * f.inv_sigma_px;
+  residual[2] = (f.fb * inv_z - f.d) * f.inv_sigma_d;
+  if (j_q == nullptr && j_t == nullptr) return true;
+  // d residual / d p_c.
+  Eigen::Matrix3d J_r;
+  J_r << f.fx * inv_z * f.inv_sigma_px, 0.0, -f.fx * p_c.x() * inv_z * inv_z * f.inv_sigma_px,  //
+      0.0, f.fy * inv_z * f.inv_sigma_px, -f.fy * p_c.y() * inv_z * inv_z * f.inv_sigma_px,     //
+      0.0, 0.0, -f.fb * inv_z * inv_z * f.inv_sigma_d;
+  const Eigen::Matrix3d J_rb = J_r * f.R_cl_b;  // d residual / d p_b
+  if (j_q != nullptr) {
+    // d p_b / d a = -2 w [v]x + 2 ((a.v) I + a v^T - 2 v a^T), and d a / d u = -I;
+    // d p_b / d w = 2 (a x v).
+    Eigen::Matrix3d v_x;
+    v_x << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+    const Eigen::Matrix3d d_a =
+        -2.0 * w * v_x + 2.0 * (a.dot(v) * Eigen::Matrix3d::Identity() + a * v.transpose() -
+                                2.0 * v * a.transpose());
+    Eigen::Matrix<double, 3, 4> d_q;
+    d_q.leftCols<3>() = -d_a;
+    d_q.col(3) = 2.0 * axv;
+    Eigen::Map<Eigen::Matrix<double, 3, 4, Eigen::RowMajor>> jq_out(j_q);
+    jq_out = J_rb * d_q;
+  }
+  if (j_t != nullptr) {
+    // d p_b / d v = I + 2 w [a]x + 2 [a]x [a]x, and d v / d t = -I.
+    Eigen::Matrix3d a_x;
+    a_x << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+    const Eigen::Matrix3d d_v = Eigen::Matrix3d::Identity() + 2.0 * w * a_x + 2.0 * a_x * a_x;
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> jt_out(j_t);
+    jt_out = -J_rb * d_v;
+  }
+  return true;
+}
 
 Pose2 toPose2(const Eigen::Isometry3d& T_w_b) {
   const Eigen::Vector3d x_axis = T_w_b.linear().col(0);
@@ -156,11 +227,7 @@ PoseUpdateResult updatePose(const StereoRig& rig,
                            q.coeffs().data(),
                            t.data());
   for (const StereoResidual& f : residuals) {
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<StereoResidual, 3, 4, 3>(new StereoResidual(f)),
-        &loss,
-        q.coeffs().data(),
-        t.data());
+    problem.AddResidualBlock(new StereoCost(f), &loss, q.coeffs().data(), t.data());
   }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;

@@ -87,6 +87,18 @@ struct StereoResidual {
   double inv_sigma_px, inv_sigma_d;
 };
 
+/// StereoResidual with its Jacobians written out (the solver's per-observation cost; auto-diff
+/// of operator() cost 3x more per frame, docs/localization.md). q_w_b in Eigen's coefficient
+/// order (x, y, z, w), the rotation taken by Eigen's unit-quaternion formula as operator() does,
+/// so both give the same derivatives. j_q (3 x 4) and j_t (3 x 3) are row-major, either may be
+/// null. False where operator() is false (behind the camera).
+bool stereoResidualWithJacobians(const StereoResidual& f,
+                                 const double* q_w_b,
+                                 const double* t_w_b,
+                                 double* residual,
+                                 double* j_q,
+                                 double* j_t);
+
 /// The prior's residual: planar part sqrt_info (x - x_p, y - y_p, yaw - yaw_p) in world axes,
 /// then (height change / planar_sigma_m, roll change / planar_sigma_rad, pitch change /
 /// planar_sigma_rad) in the predicted body frame.

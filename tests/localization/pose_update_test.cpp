@@ -92,6 +92,44 @@ TEST(PoseUpdate, AutoDiffJacobiansMatchNumericOnes) {
   expectJacobiansMatch<PriorResidual, 6>(PriorResidual(prediction, o), T);
 }
 
+TEST(PoseUpdate, AnalyticStereoJacobiansMatchAutoDiffAndNumericOnes) {
+  // The solver's cost (stereoResidualWithJacobians) against auto-diff of StereoResidual, and
+  // through the previous test auto-diff against central differences; at poses off the true one
+  // in every rotation axis, with a quaternion as Ceres' manifold keeps it (unit norm).
+  const StereoRig rig = SyntheticStream::defaultRig();
+  std::mt19937_64 rng(kSeed + 1);
+  std::uniform_real_distribution<double> angle(-0.3, 0.3);
+  const Eigen::Isometry3d T_true = pose(1.0, 0.5, 0.3);
+  const auto obs = observe(rig, T_true, 20, 0.3, 0.0, &rng);
+  const PoseUpdateOptions o;
+  constexpr double kAnalyticTol = 1e-9;  // same formula, rounding only (relative to max(1, |J|))
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::Isometry3d T = T_true;
+    T.linear() = T.linear() * Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitX()).matrix() *
+                 Eigen::AngleAxisd(0.3 * angle(rng), Eigen::Vector3d::UnitY()).matrix() *
+                 Eigen::AngleAxisd(0.3 * angle(rng), Eigen::Vector3d::UnitZ()).matrix();
+    T.translation() += Eigen::Vector3d(0.05, -0.03, 0.02);
+    Eigen::Quaterniond q(T.linear());
+    Eigen::Vector3d t = T.translation();
+    double* params[] = {q.coeffs().data(), t.data()};
+    for (const LandmarkObservation& ob : obs) {
+      const StereoResidual f(rig, ob, o);
+      ceres::AutoDiffCostFunction<StereoResidual, 3, 4, 3> autodiff(new StereoResidual(f));
+      double r_a[3], jq_a[12], jt_a[9], r[3], jq[12], jt[9];
+      double* j_a[] = {jq_a, jt_a};
+      const bool ok_a = autodiff.Evaluate(params, r_a, j_a);
+      ASSERT_EQ(stereoResidualWithJacobians(f, q.coeffs().data(), t.data(), r, jq, jt), ok_a);
+      if (!ok_a) continue;
+      for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(r[i], r_a[i], kAnalyticTol * std::max(1.0, std::abs(r_a[i])));
+      for (int i = 0; i < 12; ++i)
+        EXPECT_NEAR(jq[i], jq_a[i], kAnalyticTol * std::max(1.0, std::abs(jq_a[i]))) << i;
+      for (int i = 0; i < 9; ++i)
+        EXPECT_NEAR(jt[i], jt_a[i], kAnalyticTol * std::max(1.0, std::abs(jt_a[i]))) << i;
+    }
+  }
+}
+
 TEST(PoseUpdate, RecoversTheTruePoseFromAWrongPredictionDespiteOutliers) {
   const StereoRig rig = SyntheticStream::defaultRig();
   std::mt19937_64 rng(kSeed + 1);
