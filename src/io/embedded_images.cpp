@@ -28,6 +28,11 @@ const std::string& rejectedPrefix() {
 constexpr size_t kMaxClassNameChars = 120;
 /// Largest JPEG payload accepted (same cap as any single allocation of one object).
 constexpr uint32_t kMaxJpegBytes = static_cast<uint32_t>(kMaxObjectAllocationBytes);
+/// Most pixels a JPEG may declare per byte of its data. A Huffman-coded JPEG spends at least one
+/// bit on each 8 x 8 block's DC term (512 pixels a byte for grey), so a header declaring far more
+/// is corrupt; without this bound a few hundred bytes could ask for a 64 Mpx decode, and a log
+/// of such images for minutes of work.
+constexpr uint64_t kMaxJpegPixelsPerByte = 1024;
 
 /// Where the data of a serialised image starts: its version field.
 struct ImageHeader {
@@ -156,6 +161,11 @@ std::optional<std::string> decodeJpeg(const std::string& jpeg, cv::Mat* grey) {
     why << "embedded JPEG declares " << width << "x" << height << " pixels, outside 1 to "
         << kMaxForeignImageSidePx << " per side and " << kMaxForeignImagePixels
         << " in all (corrupt log)";
+    return why.str();
+  }
+  if (uint64_t{width} * height > kMaxJpegPixelsPerByte * jpeg.size()) {
+    why << "embedded JPEG declares " << width << "x" << height << " pixels in " << jpeg.size()
+        << " bytes, more than a JPEG holds (corrupt log)";
     return why.str();
   }
   {

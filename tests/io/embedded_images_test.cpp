@@ -118,6 +118,22 @@ TEST(EmbeddedImages, CorruptJpegIsRejectedUnderEveryNameMrptAccepts) {
   }
 }
 
+// A JPEG header may declare up to 65535 x 65535 pixels whatever its size: one that declares far
+// more pixels than its bytes can code is refused before decoding (a few hundred bytes asked for
+// a 64 Mpx decode).
+TEST(EmbeddedImages, JpegDeclaringMorePixelsThanItsBytesHoldIsRejected) {
+  std::string image = jpegImageBytes();
+  const size_t frame = image.find(std::string("\xFF\xC0", 2));
+  ASSERT_NE(frame, std::string::npos) << "no baseline frame header";
+  image[frame + 5] = static_cast<char>(0x10);  // height 4096 + 16
+  image[frame + 7] = static_cast<char>(0x3F);  // width 16128 + 24
+  std::optional<std::string> rejection;
+  filtered(image, &rejection);
+  ASSERT_TRUE(rejection.has_value());
+  EXPECT_NE(rejection->find("embedded JPEG declares 16152x4112 pixels in"), std::string::npos)
+      << *rejection;
+}
+
 // MRPT before 0.5.5: [n][0 0 0][name][int32 version][data], no end flag.
 TEST(EmbeddedImages, OldHeaderFormatIsFilteredToo) {
   const std::string image = jpegImageBytes();
@@ -137,8 +153,9 @@ TEST(EmbeddedImages, OldHeaderFormatIsFilteredToo) {
 
 // "Image" in other bytes (a string, another class) is left as it is.
 TEST(EmbeddedImages, OtherBytesAreLeftAlone) {
-  const std::string bytes =
-      std::string("\xa3mrpt::obs::CObservationStereoImages\x06", 37) + "Image Image\x86" "CImagf";
+  const std::string bytes = std::string("\xa3mrpt::obs::CObservationStereoImages\x06", 37) +
+                            "Image Image\x86"
+                            "CImagf";
   std::optional<std::string> rejection;
   EXPECT_EQ(filtered(bytes, &rejection), bytes);
   EXPECT_FALSE(rejection.has_value());
