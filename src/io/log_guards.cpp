@@ -1,7 +1,12 @@
 #include "io/log_guards.h"
 
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <new>
+#include <string_view>
+
+#include "io/embedded_images.h"
 
 namespace twocam::io::internal {
 
@@ -15,6 +20,66 @@ AllocationCap::AllocationCap(size_t bytes) : saved_(t_allocation_cap_bytes) {
   t_allocation_cap_bytes = bytes;
 }
 AllocationCap::~AllocationCap() { t_allocation_cap_bytes = saved_; }
+
+namespace {
+constexpr size_t kKeepBehindBytes = 128;  // longest object header before a class name's "Image"
+constexpr size_t kCompactAboveBytes = size_t{1} << 20;
+constexpr size_t kReadChunkBytes = size_t{64} << 10;
+constexpr size_t kMaxReadChunkBytes = size_t{1} << 20;
+const char* const kImageText = "Image";
+constexpr size_t kImageTextChars = 5;
+}  // namespace
+
+bool PeekableStream::fill(size_t size) {
+  while (ahead_.size() < size) {
+    const size_t want =
+        std::min(std::max(size - ahead_.size(), kReadChunkBytes), kMaxReadChunkBytes);
+    const size_t have = ahead_.size();
+    ahead_.resize(have + want);
+    const size_t got = source_.Read(ahead_.data() + have, want);
+    ahead_.resize(have + got);
+    if (got == 0) return false;
+  }
+  return true;
+}
+
+void PeekableStream::prepare(size_t end) {
+  const FillFunction fill_ahead = [this](size_t size) { return fill(size); };
+  while (true) {
+    fill(end + kImageTextChars - 1);  // an "Image" that starts before `end` is whole
+    const size_t stop = std::min(end, ahead_.size());
+    if (filtered_ >= stop) return;
+    // Only the bytes about to be handed out: the look-ahead can be much longer.
+    const std::string_view window =
+        std::string_view(ahead_).substr(filtered_, stop - filtered_ + kImageTextChars - 1);
+    const size_t hit = window.find(kImageText);
+    if (hit == std::string_view::npos || filtered_ + hit >= stop) {
+      filtered_ = stop;
+      return;
+    }
+    filtered_ = filterEmbeddedImage(&ahead_, filtered_ + hit, fill_ahead, &rejection_);
+  }
+}
+
+size_t PeekableStream::Read(void* buffer, size_t count) {
+  prepare(ahead_pos_ + count);
+  const size_t n = std::min(count, ahead_.size() - ahead_pos_);
+  if (n > 0) std::memcpy(buffer, ahead_.data() + ahead_pos_, n);
+  ahead_pos_ += n;
+  position_ += n;
+  if (ahead_pos_ > kCompactAboveBytes + kKeepBehindBytes) {
+    const size_t drop = ahead_pos_ - kKeepBehindBytes;
+    ahead_.erase(0, drop);
+    ahead_pos_ -= drop;
+    filtered_ -= drop;
+  }
+  return n;
+}
+
+std::string PeekableStream::peek(size_t count) {
+  prepare(ahead_pos_ + count);
+  return ahead_.substr(ahead_pos_, count);
+}
 
 std::optional<std::pair<uint32_t, uint32_t>> peekRangeImageSize(PeekableStream& stream) {
   static const std::string kClass = "mrpt::obs::CObservation3DRangeScan";

@@ -6,10 +6,8 @@
 
 #include <mrpt/io/CStream.h>
 
-#include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -39,25 +37,15 @@ class AllocationCap {
   size_t saved_;
 };
 /// A read-only stream over another with look-ahead: peek() reads bytes ahead without consuming
-/// them, so that sizes can be checked before MRPT's deserialisers allocate by them.
+/// them, so that sizes can be checked before MRPT's deserialisers allocate by them. Every image
+/// serialised in the stream is filtered (embedded_images.h: a JPEG is decoded here and handed to
+/// MRPT as raw pixels, a bad one as a rejected image) before MRPT reads the first byte of its
+/// class name's "Image", so that MRPT never decodes a JPEG itself.
 class PeekableStream : public mrpt::io::CStream {
  public:
   explicit PeekableStream(mrpt::io::CStream& source) : source_(source) {}
 
-  size_t Read(void* buffer, size_t count) override {
-    auto* out = static_cast<uint8_t*>(buffer);
-    const size_t from_ahead = std::min(count, ahead_.size() - ahead_pos_);
-    std::memcpy(out, ahead_.data() + ahead_pos_, from_ahead);
-    ahead_pos_ += from_ahead;
-    if (ahead_pos_ == ahead_.size()) {
-      ahead_.clear();
-      ahead_pos_ = 0;
-    }
-    size_t n = from_ahead;
-    if (n < count) n += source_.Read(out + n, count - n);
-    position_ += n;
-    return n;
-  }
+  size_t Read(void* buffer, size_t count) override;
   size_t Write(const void* /*buffer*/, size_t /*count*/) override { return 0; }
   uint64_t Seek(int64_t /*offset*/, TSeekOrigin /*origin*/) override {
     throw std::runtime_error("rawlog reader: seek not supported");
@@ -66,21 +54,24 @@ class PeekableStream : public mrpt::io::CStream {
   uint64_t getPosition() const override { return position_; }
 
   /// The next `count` bytes (fewer at the end of the stream), left unread.
-  std::string peek(size_t count) {
-    const size_t have = ahead_.size() - ahead_pos_;
-    if (have < count) {
-      std::string more(count - have, '\0');
-      more.resize(source_.Read(more.data(), more.size()));
-      ahead_.append(more);
-    }
-    return ahead_.substr(ahead_pos_, count);
-  }
+  std::string peek(size_t count);
+
+  /// The reason of the last image the filter rejected since the previous call, if any.
+  std::optional<std::string> takeRejection() { return std::exchange(rejection_, std::nullopt); }
 
  private:
+  /// Makes ahead_ hold at least `size` bytes; false if the source ends first.
+  bool fill(size_t size);
+  /// Filters the images whose "Image" starts before ahead_[end], after making ahead_ hold the
+  /// bytes up to `end` (fewer at the end of the stream).
+  void prepare(size_t end);
+
   mrpt::io::CStream& source_;
   std::string ahead_;
-  size_t ahead_pos_ = 0;
-  uint64_t position_ = 0;
+  size_t ahead_pos_ = 0;   // next byte to hand out
+  size_t filtered_ = 0;    // "Image" texts starting before ahead_[filtered_] are handled
+  uint64_t position_ = 0;  // bytes handed out
+  std::optional<std::string> rejection_;
 };
 
 /// A size in the log that the log itself does not allow: an error of the frame being read.

@@ -1,9 +1,9 @@
+// RawlogReader: TwoCam's own logs and other tools' (docs/recorded_data.md). The writer is in
+// rawlog_writer.cpp.
 #include "io/rawlog.h"
 
-#include <fcntl.h>
 #include <mrpt/img/CImage.h>
 #include <mrpt/io/CFileGZInputStream.h>
-#include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/io/CStream.h>
 #include <mrpt/obs/CActionCollection.h>
 #include <mrpt/obs/CActionRobotMovement2D.h>
@@ -12,21 +12,16 @@
 #include <mrpt/obs/CObservationOdometry.h>
 #include <mrpt/obs/CObservationRobotPose.h>
 #include <mrpt/obs/CObservationStereoImages.h>
-#include <mrpt/obs/CRawlog.h>
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DQuat.h>
 #include <mrpt/serialization/CArchive.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <filesystem>
-#include <limits>
 #include <new>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -36,86 +31,29 @@
 #include <string>
 #include <utility>
 
-#include "common/options_check.h"
 #include "common/quiet_stderr.h"
+#include "io/embedded_images.h"
 #include "io/log_guards.h"
+#include "io/rawlog_format.h"
 
 namespace twocam::io {
 
 namespace fs = std::filesystem;
 using internal::AllocationCap;
 using internal::BadSizeError;
+using internal::fromMrptPose;
+using internal::fromMrptTime;
+using internal::kEndPrefix;
+using internal::kHeaderPrefix;
 using internal::kMaxForeignImagePixels;
 using internal::kMaxForeignImageSidePx;
 using internal::kMaxObjectAllocationBytes;
+using internal::kSyntheticOdometryField;
 using internal::PeekableStream;
 using internal::peekRangeImageSize;
+using internal::rejectedImageReason;
 
 namespace {
-
-constexpr const char* kHeaderPrefix = "twocam rawlog v1";
-constexpr const char* kEndPrefix = "twocam rawlog end";
-/// Last field of the header of a log with synthetic odometry, followed by the note.
-constexpr const char* kSyntheticOdometryField = "; synthetic odometry: ";
-
-mrpt::Clock::time_point toMrptTime(int64_t t_ns) {
-  return mrpt::Clock::time_point(
-      std::chrono::duration_cast<mrpt::Clock::duration>(std::chrono::nanoseconds(t_ns)));
-}
-/// MRPT time stamps count 100 ns ticks since 1601-01-01 (Windows FILETIME). TwoCam's writer
-/// stores t_ns directly as ticks (simulated runs start at 1 s; EuRoC's UNIX-epoch stamps land
-/// in the 17th century), and those come back unchanged. Logs recorded by MRPT tools with a real
-/// clock (mrpt::Clock::now()) hold ticks whose nanosecond count overflows int64 (any date after
-/// 1893): they are returned as UNIX-epoch ns instead. Nonsense stamps (corrupt logs) saturate
-/// rather than overflow.
-int64_t fromMrptTime(mrpt::Clock::time_point t) {
-  constexpr int64_t kNsPerTick = 100;
-  constexpr int64_t kMaxDirectTicks = std::numeric_limits<int64_t>::max() / kNsPerTick;
-  constexpr int64_t kUnixEpochTicks = 116'444'736'000'000'000LL;  // 1970-01-01 on MRPT's clock
-  const int64_t ticks = t.time_since_epoch().count();
-  if (ticks < -kMaxDirectTicks) return std::numeric_limits<int64_t>::min();
-  if (ticks <= kMaxDirectTicks) return ticks * kNsPerTick;
-  if (ticks - kUnixEpochTicks > kMaxDirectTicks) return std::numeric_limits<int64_t>::max();
-  return (ticks - kUnixEpochTicks) * kNsPerTick;
-}
-
-mrpt::poses::CPose3D toMrptPose(const Eigen::Isometry3d& T) {
-  mrpt::math::CMatrixDouble44 M;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) M(r, c) = T.matrix()(r, c);
-  return mrpt::poses::CPose3D(M);
-}
-Eigen::Isometry3d fromMrptPose(const mrpt::poses::CPose3D& p) {
-  const auto M = p.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = M(r, c);
-  return T;
-}
-
-mrpt::img::TCamera toTCamera(const StereoRig& rig) {
-  mrpt::img::TCamera cam;
-  cam.ncols = static_cast<uint32_t>(rig.width_px);
-  cam.nrows = static_cast<uint32_t>(rig.height_px);
-  cam.setIntrinsicParamsFromValues(rig.fx_px, rig.fy_px, rig.cx_px, rig.cy_px);
-  return cam;
-}
-
-Status writePng(const ImageU8& img, const std::string& path) {
-  const cv::Mat m(img.height, img.width, CV_8UC1, const_cast<uint8_t*>(img.data.data()));
-  try {
-    // Without an explicit compression level OpenCV takes its fast path (SUB filter, zlib level
-    // 1); Huffman-only coding suits noisy sensor images, where LZ77 finds no matches. Measured on
-    // a simulated 640x480 frame: 3.6 ms and 190 KB, against 7.8 ms and 198 KB at level 1 with
-    // the default strategy (lossless either way).
-    if (cv::imwrite(path, m, {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY}))
-      return Status::ok();
-  } catch (const cv::Exception& e) {
-    return Status::error("cannot write image " + path + ": " + e.what());
-  }
-  return Status::error("cannot write image " + path);
-}
-
 /// Reads an image with the C library's stderr (fd 2) silenced: libpng prints "libpng error:
 /// ..." there for a corrupt file before OpenCV returns an empty image, and TwoCam reports the
 /// failure in its own words instead. Process-wide while it runs (single-threaded callers).
@@ -127,237 +65,7 @@ cv::Mat imreadQuietly(const std::string& path, int flags) {
     return cv::Mat();
   }
 }
-
-std::string frameName(const char* prefix, int index) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%s_%06d.png", prefix, index);
-  return buf;
-}
-
 }  // namespace
-
-Status RawlogWriterOptions::validate() const {
-  if (Status s = checkRange("gzip_level", gzip_level, 0, 9); !s) return s;
-  if (Status s = checkRange("depth_unit_m", depth_unit_m, 0.0, 1.0, "m"); !s) return s;
-  if (Status s = checkPositive("max_depth_m", max_depth_m, "m"); !s) return s;
-  if (synthetic_odometry.find_first_of("\r\n") != std::string::npos)
-    return Status::error("synthetic_odometry: the note must be one line");
-  return checkRange("max_depth_m", max_depth_m, 0.0, kMaxLogCoordinateM, "m");
-}
-
-double depthUnit(const RawlogWriterOptions& options) {
-  if (options.depth_unit_m > 0.0) return options.depth_unit_m;
-  constexpr double kFinestUnitM = 1e-4;
-  return std::max(kFinestUnitM, options.max_depth_m / 65535.0);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Writer
-
-struct RawlogWriter::Impl {
-  mrpt::io::CFileGZOutputStream stream;
-};
-
-Status RawlogWriter::open(const std::string& path,
-                          const StereoRig& rig,
-                          const RawlogWriterOptions& options,
-                          std::unique_ptr<RawlogWriter>* out) {
-  if (Status st = options.validate(); !st) return st;
-  if (Status st = rig.validate(); !st) return st;
-  std::unique_ptr<RawlogWriter> w(new RawlogWriter());
-  w->impl_ = std::make_unique<Impl>();
-  w->path_ = path;
-  w->partial_path_ = path + ".partial";
-  const fs::path p(path);
-  if (p.filename().empty()) return Status::error("output path '" + path + "' names no file");
-  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec))
-    return Status::error("cannot write '" + path + "': folder '" + dir.string() +
-                         "' does not exist");
-  w->images_dir_ = (dir / (p.stem().string() + "_Images")).string();
-  w->partial_images_dir_ = w->images_dir_ + ".partial";
-  w->rig_ = rig;
-  w->options_ = options;
-  fs::remove_all(w->partial_images_dir_, ec);
-  if (!fs::create_directories(w->partial_images_dir_, ec) || ec) {
-    return Status::error("cannot write '" + path + "': cannot create folder '" +
-                         w->partial_images_dir_ + "'" + (ec ? ": " + ec.message() : ""));
-  }
-  std::string err;
-  if (!w->impl_->stream.open(w->partial_path_, options.gzip_level, err)) {
-    fs::remove_all(w->partial_images_dir_, ec);
-    return Status::error("cannot write '" + path + "': cannot open '" + w->partial_path_ + "'" +
-                         (err.empty() ? "" : ": " + err));
-  }
-  *out = std::move(w);
-  return Status::ok();
-}
-
-RawlogWriter::~RawlogWriter() {
-  if (finished_) return;
-  if (impl_ && !closed_) impl_->stream.close();
-  std::error_code ec;
-  if (!partial_path_.empty()) fs::remove(partial_path_, ec);
-  if (!partial_images_dir_.empty()) fs::remove_all(partial_images_dir_, ec);
-}
-
-Status RawlogWriter::write(const StereoFrame& stereo,
-                           const OdometrySample* odometry,
-                           const GroundTruthFrame* gt) {
-  if (finished_) return Status::error("rawlog writer: write() after finish()");
-  if (stereo.left.width != rig_.width_px || stereo.left.height != rig_.height_px ||
-      stereo.right.width != rig_.width_px || stereo.right.height != rig_.height_px) {
-    return Status::error("rawlog writer: stereo images do not match the rig size");
-  }
-  const auto t = toMrptTime(stereo.t_ns);
-  if (frames_ == 0) {
-    // The header carries the first frame's time stamp (not the wall clock), so that the same
-    // simulation gives the same bytes.
-    try {
-      mrpt::obs::CObservationComment header;
-      std::ostringstream os;
-      const bool synthetic = !options_.synthetic_odometry.empty();
-      os << kHeaderPrefix << "; observations-only; labels " << kStereoLabel << " "
-         << (synthetic ? kSyntheticOdometryLabel : kOdometryLabel) << " " << kGtPoseLabel << " "
-         << kGtDepthLabel << "; depth_unit_m " << depthUnit(options_);
-      if (synthetic) os << kSyntheticOdometryField << options_.synthetic_odometry;
-      header.text = os.str();
-      header.sensorLabel = "TWOCAM";
-      header.timestamp = t;
-      auto arch = mrpt::serialization::archiveFrom(impl_->stream);
-      arch << header;
-    } catch (const std::exception& e) {
-      return Status::error("cannot write '" + partial_path_ + "': " + e.what());
-    }
-  }
-  last_t_ns_ = stereo.t_ns;
-  const std::string left_name = frameName("left", frames_);
-  const std::string right_name = frameName("right", frames_);
-  if (Status st = writePng(stereo.left, partial_images_dir_ + "/" + left_name); !st) return st;
-  if (Status st = writePng(stereo.right, partial_images_dir_ + "/" + right_name); !st) return st;
-  try {
-    auto arch = mrpt::serialization::archiveFrom(impl_->stream);
-    mrpt::obs::CObservationStereoImages obs;
-    obs.sensorLabel = kStereoLabel;
-    obs.timestamp = t;
-    obs.imageLeft.setExternalStorage(left_name);
-    obs.imageRight.setExternalStorage(right_name);
-    obs.hasImageRight = true;
-    obs.hasImageDisparity = false;
-    obs.leftCamera = toTCamera(rig_);
-    obs.rightCamera = toTCamera(rig_);
-    obs.cameraPose = mrpt::poses::CPose3DQuat(toMrptPose(rig_.T_b_cl));
-    obs.rightCameraPose = mrpt::poses::CPose3DQuat(toMrptPose(rig_.T_cl_cr()));
-    arch << obs;
-    if (odometry != nullptr) {
-      mrpt::obs::CObservationOdometry odo;
-      odo.sensorLabel =
-          options_.synthetic_odometry.empty() ? kOdometryLabel : kSyntheticOdometryLabel;
-      odo.timestamp = toMrptTime(odometry->t_ns);
-      odo.odometry =
-          mrpt::poses::CPose2D(odometry->pose.x_m, odometry->pose.y_m, odometry->pose.yaw_rad);
-      arch << odo;
-    }
-    if (gt != nullptr) {
-      mrpt::obs::CObservationRobotPose pose;
-      pose.sensorLabel = kGtPoseLabel;
-      pose.timestamp = toMrptTime(gt->t_ns);
-      pose.pose.mean = toMrptPose(gt->T_w_b);
-      pose.pose.cov.setZero();
-      arch << pose;
-      if (!gt->depth_left.empty()) {
-        mrpt::obs::CObservation3DRangeScan depth;
-        depth.sensorLabel = kGtDepthLabel;
-        depth.timestamp = toMrptTime(gt->t_ns);
-        depth.hasRangeImage = true;
-        depth.range_is_depth = true;
-        const double unit = depthUnit(options_);
-        depth.rangeUnits = static_cast<float>(unit);
-        depth.rangeImage_setSize(gt->depth_left.height, gt->depth_left.width);
-        for (int v = 0; v < gt->depth_left.height; ++v)
-          for (int u = 0; u < gt->depth_left.width; ++u) {
-            const double q = std::round(gt->depth_left(u, v) / unit);
-            depth.rangeImage(v, u) = static_cast<uint16_t>(std::clamp(q, 0.0, 65535.0));
-          }
-        depth.cameraParams = toTCamera(rig_);
-        depth.cameraParamsIntensity = depth.cameraParams;
-        depth.sensorPose = toMrptPose(rig_.T_b_cl);
-        arch << depth;
-      }
-    }
-  } catch (const std::exception& e) {
-    return Status::error("cannot write '" + partial_path_ + "': " + e.what());
-  }
-  ++frames_;
-  return Status::ok();
-}
-
-Status commitStaged(const std::vector<StagedMove>& moves) {
-  std::error_code ec;
-  // Undo log: (from, to) renames done so far, replayed backwards on failure.
-  std::vector<std::pair<fs::path, fs::path>> done;
-  const auto rollback = [&] {
-    for (auto it = done.rbegin(); it != done.rend(); ++it) {
-      std::error_code ignored;
-      fs::rename(it->second, it->first, ignored);
-    }
-  };
-  std::vector<fs::path> aside;
-  for (const StagedMove& m : moves) {
-    const fs::path final_path(m.final_path);
-    if (!fs::exists(fs::symlink_status(final_path, ec))) continue;
-    const fs::path old = m.final_path + ".old";
-    fs::remove_all(old, ec);
-    fs::rename(final_path, old, ec);
-    if (ec) {
-      rollback();
-      return Status::error("cannot replace '" + m.final_path + "': " + ec.message());
-    }
-    done.emplace_back(final_path, old);
-    aside.push_back(old);
-  }
-  for (const StagedMove& m : moves) {
-    fs::rename(m.staged, m.final_path, ec);
-    if (ec) {
-      const std::string why = ec.message();
-      rollback();
-      return Status::error("cannot move '" + m.staged + "' to '" + m.final_path + "': " + why);
-    }
-    done.emplace_back(m.staged, m.final_path);
-  }
-  for (const fs::path& old : aside) fs::remove_all(old, ec);
-  return Status::ok();
-}
-
-Status RawlogWriter::close() {
-  if (finished_ || closed_) return Status::ok();
-  try {
-    auto arch = mrpt::serialization::archiveFrom(impl_->stream);
-    mrpt::obs::CObservationComment end;
-    end.sensorLabel = "TWOCAM";
-    end.text = std::string(kEndPrefix) + "; frames " + std::to_string(frames_);
-    end.timestamp = toMrptTime(last_t_ns_);
-    arch << end;
-  } catch (const std::exception& e) {
-    return Status::error("cannot write '" + partial_path_ + "': " + e.what());
-  }
-  impl_->stream.close();
-  closed_ = true;
-  return Status::ok();
-}
-
-std::vector<StagedMove> RawlogWriter::stagedMoves() const {
-  return {{partial_images_dir_, images_dir_}, {partial_path_, path_}};
-}
-
-Status RawlogWriter::finish() {
-  if (finished_) return Status::ok();
-  if (Status st = close(); !st) return st;
-  if (Status st = commitStaged(stagedMoves()); !st) return st;
-  finished_ = true;
-  return Status::ok();
-}
 
 // ---------------------------------------------------------------------------------------------
 // Reader
@@ -420,17 +128,24 @@ struct RawlogReader::Impl {
     while (pending.empty()) {
       if (eof) return nullptr;
       mrpt::serialization::CSerializable::Ptr obj;
+      peekable.takeRejection();
       checkNextObjectSizes();
       try {
         const AllocationCap cap(kMaxObjectAllocationBytes);
         auto arch = mrpt::serialization::archiveFrom(peekable);
         obj = arch.ReadObject();
       } catch (const mrpt::serialization::CExceptionEOF&) {
+        // An image rejected by the stream's filter, whose size fields were wrong: the object
+        // no longer parses after it. Its reason says more than MRPT's.
+        if (auto why = peekable.takeRejection()) throw std::runtime_error(*why);
         eof = true;
         return nullptr;
       } catch (const std::bad_alloc&) {
         throw BadSizeError("an object declares a size above " +
                            std::to_string(kMaxObjectAllocationBytes >> 20) + " MiB (corrupt log)");
+      } catch (const std::exception&) {
+        if (auto why = peekable.takeRejection()) throw std::runtime_error(*why);
+        throw;
       }
       if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(obj)) {
         if (auto c = std::dynamic_pointer_cast<mrpt::obs::CObservationComment>(obs)) {
@@ -483,6 +198,9 @@ struct RawlogReader::Impl {
     cv::Mat grey;
     if (img.isExternallyStored()) {
       std::string file = img.getExternalStorageFile();
+      // An embedded image the look-ahead stream rejected (embedded_images.h).
+      if (auto reason = rejectedImageReason(file))
+        return Status::error(side + (" image: " + *reason));
       if (!fs::path(file).is_absolute()) file = images_dir + "/" + file;
       std::error_code ec;
       if (!fs::is_regular_file(file, ec))

@@ -19,12 +19,14 @@
 #include <mrpt/serialization/CArchive.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -61,6 +63,17 @@ cv::Mat pattern(int width, int height, int seed, int channels = 1) {
     auto* row = m.ptr<uint8_t>(v);
     for (int i = 0; i < width * channels; ++i) row[i] = static_cast<uint8_t>(rng() & 0xFF);
   }
+  return m;
+}
+
+/// A smooth colour image (JPEG keeps it to within a few grey levels).
+cv::Mat smoothColour(int width, int height, int seed) {
+  cv::Mat m(height, width, CV_8UC3);
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u)
+      m.at<cv::Vec3b>(v, u) = cv::Vec3b(static_cast<uint8_t>(40 + 3 * u + seed),
+                                        static_cast<uint8_t>(60 + 4 * v),
+                                        static_cast<uint8_t>(100 + 2 * (u + v)));
   return m;
 }
 
@@ -538,6 +551,139 @@ TEST(ForeignRawlogErrors, MissingExternalImage) {
   TWOCAM_EXPECT_MESSAGE_HAS(r.end, "frame 1");
   TWOCAM_EXPECT_MESSAGE_HAS(r.end, dir + "/ext_Images/r1.png");
   TWOCAM_EXPECT_MESSAGE_HAS(r.end, "missing");
+}
+
+// --- (c) images stored inside the log ------------------------------------------------------
+
+// MRPT writes colour images as JPEG when asked (CImage::DISABLE_JPEG_COMPRESSION(false)).
+class JpegSerialization {
+ public:
+  JpegSerialization() : saved_(mrpt::img::CImage::DISABLE_JPEG_COMPRESSION()) {
+    mrpt::img::CImage::DISABLE_JPEG_COMPRESSION(false);
+  }
+  ~JpegSerialization() { mrpt::img::CImage::DISABLE_JPEG_COMPRESSION(saved_); }
+  JpegSerialization(const JpegSerialization&) = delete;
+  JpegSerialization& operator=(const JpegSerialization&) = delete;
+
+ private:
+  bool saved_;
+};
+
+/// An observations-only log of `frames` stereo pairs with smooth colour images stored inside it
+/// as JPEG.
+void writeJpegLog(const std::string& path, int frames) {
+  const ForeignRig rig;
+  const JpegSerialization jpeg;
+  std::vector<mrpt::serialization::CSerializable::Ptr> objects;
+  for (int k = 0; k < frames; ++k) {
+    auto s = stereoObs(rig, ticksTime(1'000'000'000LL * (k + 1)), "CAM", k);
+    s->imageLeft = mrpt::img::CImage(smoothColour(kWidth, kHeight, k), mrpt::img::DEEP_COPY);
+    s->imageRight = mrpt::img::CImage(smoothColour(kWidth, kHeight, k + 7), mrpt::img::DEEP_COPY);
+    objects.push_back(s);
+  }
+  writeObservations(path, objects);
+}
+
+/// Index of the n-th (from 0) occurrence of `what` in `bytes`, or npos.
+size_t nthOccurrence(const std::string& bytes, const std::string& what, int n) {
+  size_t at = bytes.find(what);
+  for (int k = 0; k < n && at != std::string::npos; ++k) at = bytes.find(what, at + 1);
+  return at;
+}
+
+const std::string kJpegStart("\xFF\xD8\xFF", 3);
+
+// JPEG images inside the log are decoded by the reader (OpenCV), not by MRPT, and come back as
+// their grey levels.
+TEST(ForeignRawlog, EmbeddedJpegImages) {
+  const std::string dir = test::makeTempDir("foreign_jpeg");
+  const std::string path = dir + "/jpeg.rawlog";
+  writeJpegLog(path, 2);
+  ASSERT_NE(nthOccurrence(readBytes(path), kJpegStart, 3), std::string::npos)
+      << "the log does not hold four JPEG images";
+  const ReadResult r = readAll(path);
+  ASSERT_TRUE(r.open.isOk()) << r.open.message();
+  EXPECT_TRUE(r.end.isOk()) << r.end.message();
+  ASSERT_EQ(r.frames.size(), 2u);
+  constexpr double kJpegGreyTol = 3.0;  // mean |error| of a quality-95 JPEG of a smooth image
+  for (int k = 0; k < 2; ++k) {
+    for (const auto& [img, seed] : {std::make_pair(&r.frames[k].stereo.left, k),
+                                    std::make_pair(&r.frames[k].stereo.right, k + 7)}) {
+      ASSERT_EQ(img->width, kWidth);
+      ASSERT_EQ(img->height, kHeight);
+      cv::Mat grey;
+      cv::cvtColor(smoothColour(kWidth, kHeight, seed), grey, cv::COLOR_BGR2GRAY);
+      double sum = 0.0;
+      for (int v = 0; v < kHeight; ++v)
+        for (int u = 0; u < kWidth; ++u) sum += std::abs((*img)(u, v) - grey.at<uint8_t>(v, u));
+      EXPECT_LT(sum / (kWidth * kHeight), kJpegGreyTol) << "frame " << k << " seed " << seed;
+    }
+  }
+}
+
+// A JPEG inside the log that is corrupt: MRPT 2.5 would decode it with libjpeg's default error
+// handler, which calls exit(1) ("Not a JPEG file: starts with 0x00 0x00"). It is an error of
+// its frame, and the frames before it are delivered.
+TEST(ForeignRawlogErrors, CorruptEmbeddedJpegIsAnErrorOfItsFrame) {
+  const std::string dir = test::makeTempDir("foreign_bad_jpeg");
+  for (int frame : {0, 2}) {
+    const std::string path = dir + "/bad" + std::to_string(frame) + ".rawlog";
+    writeJpegLog(path, 3);
+    std::string bytes = readBytes(path);
+    const size_t at = nthOccurrence(bytes, kJpegStart, 2 * frame);  // the frame's left image
+    ASSERT_NE(at, std::string::npos);
+    std::memset(bytes.data() + at, 0, 32);
+    writeBytes(path, bytes);
+    const ReadResult r = readAll(path);
+    ASSERT_TRUE(r.open.isOk()) << r.open.message();
+    EXPECT_EQ(r.frames.size(), static_cast<size_t>(frame));
+    ASSERT_FALSE(r.end.isOk());
+    TWOCAM_EXPECT_MESSAGE_HAS(r.end,
+                              "log '" + path + "', frame " + std::to_string(frame) +
+                                  ": left image: embedded image is not a JPEG");
+    EXPECT_EQ(r.end.message().find('\n'), std::string::npos) << r.end.message();
+  }
+  // Damage after the JPEG's header: it still decodes (libjpeg fills in what is missing) or is
+  // reported, never an exit.
+  const std::string path = dir + "/tail.rawlog";
+  writeJpegLog(path, 2);
+  std::string bytes = readBytes(path);
+  const size_t at = nthOccurrence(bytes, kJpegStart, 1);
+  ASSERT_NE(at, std::string::npos);
+  for (size_t i = at + 200; i < at + 260; ++i) bytes[i] = static_cast<char>(i * 37);
+  writeBytes(path, bytes);
+  const ReadResult r = readAll(path);
+  ASSERT_TRUE(r.open.isOk()) << r.open.message();
+  if (!r.end.isOk()) {
+    TWOCAM_EXPECT_MESSAGE_HAS(r.end, "frame 0: right image");
+  }
+}
+
+// A grey image inside the log whose byte count is larger than its pixels: MRPT 2.5 reads that
+// many bytes into the image's buffer, past its end. It is an error of its frame.
+TEST(ForeignRawlogErrors, EmbeddedGreyImageLargerThanItsPixels) {
+  const std::string dir = test::makeTempDir("foreign_grey_size");
+  const std::string path = dir + "/grey.rawlog";
+  const ForeignRig rig;
+  writeObservations(path,
+                    {stereoObs(rig, ticksTime(1'000'000'000LL), "CAM", 0),
+                     stereoObs(rig, ticksTime(2'000'000'000LL), "CAM", 1)});
+  std::string bytes = readBytes(path);
+  // Version 9, stored inside, grey: then width, height, origin and the byte count.
+  const std::string grey_image = std::string("\x91mrpt::img::CImage\x09\x00\x00", 21);
+  const size_t at = nthOccurrence(bytes, grey_image, 3);  // frame 1, right image
+  ASSERT_NE(at, std::string::npos);
+  const uint32_t too_many = kWidth * kHeight + 64;
+  std::memcpy(bytes.data() + at + grey_image.size() + 12, &too_many, 4);
+  writeBytes(path, bytes);
+  const ReadResult r = readAll(path);
+  ASSERT_TRUE(r.open.isOk()) << r.open.message();
+  EXPECT_EQ(r.frames.size(), 1u);
+  ASSERT_FALSE(r.end.isOk());
+  TWOCAM_EXPECT_MESSAGE_HAS(r.end, "log '" + path + "', frame 1: ");
+  TWOCAM_EXPECT_MESSAGE_HAS(
+      r.end,
+      "embedded grey image declares " + std::to_string(too_many) + " bytes for 40x30 pixels");
 }
 
 }  // namespace

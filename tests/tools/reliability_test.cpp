@@ -3,10 +3,19 @@
 // earlier output was lost.
 
 #include <gtest/gtest.h>
+#include <mrpt/img/CImage.h>
+#include <mrpt/io/CFileOutputStream.h>
+#include <mrpt/obs/CObservationOdometry.h>
+#include <mrpt/obs/CObservationStereoImages.h>
+#include <mrpt/poses/CPose3D.h>
+#include <mrpt/poses/CPose3DQuat.h>
+#include <mrpt/serialization/CArchive.h>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "support/command.h"
@@ -187,6 +196,69 @@ TEST(Reliability, RigAboveTheRendererLimitIsOneLine) {
   const RunResult r = run("simulate " + dir + "/w.yaml -o " + dir + "/w.rawlog --frames 1 -q");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.error.find("rig.width_px = 20000: must be in [16, 4096]"), std::string::npos)
+      << r.error;
+  EXPECT_EQ(lineCount(r.error), 1) << r.error;
+}
+
+/// An observations-only log (MRPT's API, as another tool writes it) of `frames` 64 x 48 stereo
+/// pairs whose colour images are stored inside the log as JPEG, with wheel odometry.
+void writeJpegLog(const std::string& path, int frames) {
+  const bool saved = mrpt::img::CImage::DISABLE_JPEG_COMPRESSION();
+  mrpt::img::CImage::DISABLE_JPEG_COMPRESSION(false);
+  mrpt::io::CFileOutputStream f(path);
+  ASSERT_TRUE(f.fileOpenCorrectly()) << path;
+  auto arch = mrpt::serialization::archiveFrom(f);
+  constexpr int kWidth = 64;
+  constexpr int kHeight = 48;
+  for (int k = 0; k < frames; ++k) {
+    mrpt::obs::CObservationStereoImages obs;
+    obs.sensorLabel = "CAM";
+    obs.timestamp = mrpt::Clock::time_point(mrpt::Clock::duration(10'000'000LL * (k + 1)));
+    obs.leftCamera.ncols = kWidth;
+    obs.leftCamera.nrows = kHeight;
+    obs.leftCamera.setIntrinsicParamsFromValues(60.0, 60.0, 31.5, 23.5);
+    obs.rightCamera = obs.leftCamera;
+    obs.cameraPose =
+        mrpt::poses::CPose3DQuat(mrpt::poses::CPose3D(0.3, 0.0, 0.5, -M_PI / 2, 0.0, -M_PI / 2));
+    obs.rightCameraPose = mrpt::poses::CPose3DQuat(mrpt::poses::CPose3D(0.2, 0, 0, 0, 0, 0));
+    cv::Mat colour(kHeight, kWidth, CV_8UC3);
+    for (int v = 0; v < kHeight; ++v)
+      for (int u = 0; u < kWidth; ++u)
+        colour.at<cv::Vec3b>(v, u) = cv::Vec3b(static_cast<uint8_t>(2 * u + k),
+                                               static_cast<uint8_t>(3 * v),
+                                               static_cast<uint8_t>(u + v));
+    obs.imageLeft = mrpt::img::CImage(colour, mrpt::img::DEEP_COPY);
+    obs.imageRight = mrpt::img::CImage(colour, mrpt::img::DEEP_COPY);
+    obs.hasImageRight = true;
+    arch << obs;
+    mrpt::obs::CObservationOdometry odometry;  // else `run` warns that there is none
+    odometry.sensorLabel = "ODOMETRY";
+    odometry.timestamp = obs.timestamp;
+    odometry.odometry = mrpt::poses::CPose2D(0.05 * k, 0.0, 0.0);
+    arch << odometry;
+  }
+  mrpt::img::CImage::DISABLE_JPEG_COMPRESSION(saved);
+}
+
+TEST(Reliability, CorruptJpegInsideALogIsOneLineNotLibjpegsExit) {
+  const std::string dir = test::makeTempDir("reliab_jpeg");
+  const std::string log = dir + "/jpeg.rawlog";
+  writeJpegLog(log, 3);
+  // Frame 1's left image (the third JPEG) loses its header: MRPT 2.5 handed it to libjpeg,
+  // whose default error handler printed "Not a JPEG file: starts with 0x00 0x00" and called
+  // exit(1).
+  std::string bytes = readFile(log);
+  const std::string jpeg_start("\xFF\xD8\xFF", 3);
+  size_t at = bytes.find(jpeg_start);
+  for (int k = 0; k < 2 && at != std::string::npos; ++k) at = bytes.find(jpeg_start, at + 1);
+  ASSERT_NE(at, std::string::npos);
+  std::memset(bytes.data() + at, 0, 32);
+  writeFile(log, bytes);
+  const RunResult r = run("run " + log + " -o " + dir + "/out -q --no-pictures");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.error.find("Not a JPEG file"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("log '" + log + "', frame 1: left image: embedded image is not a JPEG"),
+            std::string::npos)
       << r.error;
   EXPECT_EQ(lineCount(r.error), 1) << r.error;
 }
