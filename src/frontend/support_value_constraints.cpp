@@ -1,6 +1,6 @@
 #include "frontend/support_value_internal.h"
-/// Candidates, row constraints and post-processing of the support-value matcher
-/// (support_value_internal.h).
+/// Row constraints and post-processing of the support-value matcher (support_value_internal.h):
+/// ordering and uniqueness, continuity, depth-edge erosion, row filling.
 
 #include <algorithm>
 #include <cmath>

@@ -1,9 +1,10 @@
 #pragma once
 /// The support-value matcher's internals (support_value.h), shared by its files:
 /// support_value_kernels.cpp (geometry, weights, padded images, window sums and the hot loops
-/// with their run-time SIMD choice), support_value_constraints.cpp (candidates, row constraints
-/// and post-processing), support_value.cpp (options and the dense matcher) and
-/// support_value_salient.cpp (salient points). Exposed for those files and their tests only.
+/// with their run-time SIMD choice), support_value_constraints.cpp (row constraints and
+/// post-processing), support_value.cpp (options and the dense matcher) and
+/// support_value_salient.cpp (salient points); candidate selection is inline here. Exposed for
+/// those files and their tests only.
 
 #include <algorithm>
 #include <cmath>

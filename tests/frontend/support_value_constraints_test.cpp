@@ -6,7 +6,7 @@
 #include "frontend/support_value_internal.h"
 
 // The support-value matcher's candidate choice, row constraints and post-processing
-// (support_value_constraints.cpp) on hand-made curves and maps.
+// (support_value_internal.h, support_value_constraints.cpp) on hand-made curves and maps.
 
 namespace twocam::frontend::internal::support {
 namespace {
