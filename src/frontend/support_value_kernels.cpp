@@ -14,12 +14,16 @@
 // compiled twice on x86-64: the baseline copy and a target("avx2,popcnt") copy, chosen at run
 // time by SupportValueOptions::simd (frontend/simd.h). The population count is what pays:
 // without POPCNT the baseline's __builtin_popcountll is a bit-twiddling sequence.
+// The kernels below (the out-of-line copies) start on a 64-byte boundary, so that their hot
+// loops do not move with the code that the linker happens to place before them.
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define TWOCAM_SV_HAVE_AVX2 1
 #define TWOCAM_SV_INLINE inline __attribute__((always_inline))
+#define TWOCAM_SV_KERNEL __attribute__((aligned(64)))
 #else
 #define TWOCAM_SV_HAVE_AVX2 0
 #define TWOCAM_SV_INLINE inline
+#define TWOCAM_SV_KERNEL
 #endif
 
 namespace twocam::frontend::internal::support {
@@ -349,53 +353,49 @@ TWOCAM_SV_INLINE void crossRowBody(const uint8_t* __restrict left_pad,
   }
 }
 
-void structuresBaseline(const uint8_t* pad,
-                        const std::vector<int64_t>& integral,
-                        const Geometry& g,
-                        uint64_t* masks) {
+TWOCAM_SV_KERNEL void structuresBaseline(const uint8_t* pad,
+                                         const std::vector<int64_t>& integral,
+                                         const Geometry& g,
+                                         uint64_t* masks) {
   buildAllStructures(pad, integral, g, masks);
 }
-void supportBaseline(
+TWOCAM_SV_KERNEL void supportBaseline(
     const uint64_t* l, const uint64_t* r, const Geometry& g, const WeightPlanes& p, int32_t* sv) {
   supportRowBody(l, r, g, p, sv);
 }
-void crossBaseline(
+TWOCAM_SV_KERNEL void crossBaseline(
     const uint8_t* l, const uint8_t* r, const Geometry& g, int v, int32_t* col, int32_t* cross) {
   crossRowBody(l, r, g, v, col, cross);
 }
-int64_t disagreementBaseline(const uint64_t* a,
-                             const uint64_t* b,
-                             int words,
-                             const WeightPlanes& p) {
+TWOCAM_SV_KERNEL int64_t disagreementBaseline(const uint64_t* a,
+                                              const uint64_t* b,
+                                              int words,
+                                              const WeightPlanes& p) {
   return disagreementAny(a, b, words, p);
 }
-void structureBaseline(
+TWOCAM_SV_KERNEL void structureBaseline(
     const uint8_t* pad, const Geometry& g, int x, int y, int64_t sum, uint64_t* out) {
   buildStructure(pad, g, x, y, sum, out);
 }
 
 #if TWOCAM_SV_HAVE_AVX2
-__attribute__((target("avx2,popcnt"))) void structuresAvx2(const uint8_t* pad,
-                                                           const std::vector<int64_t>& integral,
-                                                           const Geometry& g,
-                                                           uint64_t* masks) {
+__attribute__((target("avx2,popcnt"))) TWOCAM_SV_KERNEL void structuresAvx2(
+    const uint8_t* pad, const std::vector<int64_t>& integral, const Geometry& g, uint64_t* masks) {
   buildAllStructures(pad, integral, g, masks);
 }
-__attribute__((target("avx2,popcnt"))) void supportAvx2(
+__attribute__((target("avx2,popcnt"))) TWOCAM_SV_KERNEL void supportAvx2(
     const uint64_t* l, const uint64_t* r, const Geometry& g, const WeightPlanes& p, int32_t* sv) {
   supportRowBody(l, r, g, p, sv);
 }
-__attribute__((target("avx2,popcnt"))) void crossAvx2(
+__attribute__((target("avx2,popcnt"))) TWOCAM_SV_KERNEL void crossAvx2(
     const uint8_t* l, const uint8_t* r, const Geometry& g, int v, int32_t* col, int32_t* cross) {
   crossRowBody(l, r, g, v, col, cross);
 }
-__attribute__((target("avx2,popcnt"))) int64_t disagreementAvx2(const uint64_t* a,
-                                                                const uint64_t* b,
-                                                                int words,
-                                                                const WeightPlanes& p) {
+__attribute__((target("avx2,popcnt"))) TWOCAM_SV_KERNEL int64_t
+disagreementAvx2(const uint64_t* a, const uint64_t* b, int words, const WeightPlanes& p) {
   return disagreementAny(a, b, words, p);
 }
-__attribute__((target("avx2,popcnt"))) void structureAvx2(
+__attribute__((target("avx2,popcnt"))) TWOCAM_SV_KERNEL void structureAvx2(
     const uint8_t* pad, const Geometry& g, int x, int y, int64_t sum, uint64_t* out) {
   buildStructure(pad, g, x, y, sum, out);
 }
