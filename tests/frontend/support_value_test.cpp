@@ -14,6 +14,7 @@
 #include "eval/disparity_io.h"
 #include "eval/stereo_metrics.h"
 #include "frontend/cv_interop.h"
+#include "frontend/support_value_test_support.h"
 #include "support/test_paths.h"
 
 namespace twocam::frontend {
@@ -40,85 +41,7 @@ constexpr double kMinRelaxedKeptPct = 90.0;
 constexpr float kExactTol = 0.0f;
 
 // ---------------------------------------------------------------------------------------------
-// Synthetic rectified pairs (seeded).
-
-/// Row-major texture with a few pixels' correlation: uniform noise, box-blurred 3x3.
-std::vector<uint8_t> texture(std::mt19937& rng, int width, int height) {
-  std::uniform_int_distribution<int> grey(0, 255);
-  std::vector<int> raw(static_cast<size_t>(width) * height);
-  for (int& t : raw) t = grey(rng);
-  std::vector<uint8_t> out(raw.size());
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      int s = 0, n = 0;
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int xx = x + dx, yy = y + dy;
-          if (xx < 0 || yy < 0 || xx >= width || yy >= height) continue;
-          s += raw[static_cast<size_t>(yy) * width + xx];
-          ++n;
-        }
-      }
-      // Stretch the blurred values back to most of the grey range.
-      const double m = static_cast<double>(s) / n;
-      out[static_cast<size_t>(y) * width + x] =
-          static_cast<uint8_t>(std::clamp(128.0 + 2.5 * (m - 127.5), 0.0, 255.0));
-    }
-  }
-  return out;
-}
-
-void addNoise(std::mt19937& rng, double sigma, ImageU8* image) {
-  std::normal_distribution<double> noise(0.0, sigma);
-  for (uint8_t& px : image->data)
-    px = static_cast<uint8_t>(std::clamp(std::lround(px + noise(rng)), 0L, 255L));
-}
-
-struct SyntheticPair {
-  ImageU8 left;
-  ImageU8 right;
-  ImageF32 truth;
-  ImageU8 visible;  // 1 where the right camera sees the left pixel's surface
-};
-
-/// A background at bg_d and a box (columns [w/3, 2w/3), rows [h/4, 3h/4)) at box_d, painted as a
-/// rectified rig sees them (the box occludes the background in the right view).
-SyntheticPair makeLayeredPair(uint32_t seed, int width, int height, int bg_d, int box_d) {
-  std::mt19937 rng(seed);
-  const int u0 = width / 3, u1 = 2 * width / 3, v0 = height / 4, v1 = 3 * height / 4;
-  const int bw = width + bg_d;
-  const std::vector<uint8_t> bg = texture(rng, bw, height);  // scene column s at index s
-  const std::vector<uint8_t> box = texture(rng, width, height);
-  SyntheticPair p;
-  p.left = ImageU8(width, height);
-  p.right = ImageU8(width, height);
-  p.truth = ImageF32(width, height);
-  p.visible = ImageU8(width, height);
-  for (int v = 0; v < height; ++v) {
-    const bool box_row = v >= v0 && v < v1;
-    for (int u = 0; u < width; ++u) {
-      const bool in_box = box_row && u >= u0 && u < u1;
-      p.left(u, v) =
-          in_box ? box[static_cast<size_t>(v) * width + u] : bg[static_cast<size_t>(v) * bw + u];
-      p.truth(u, v) = static_cast<float>(in_box ? box_d : bg_d);
-    }
-    for (int x = 0; x < width; ++x) {
-      const int s_box = x + box_d;
-      const bool box_here = box_row && s_box >= u0 && s_box < u1;
-      p.right(x, v) = box_here ? box[static_cast<size_t>(v) * width + s_box]
-                               : bg[static_cast<size_t>(v) * bw + x + bg_d];
-    }
-    for (int u = 0; u < width; ++u) {
-      const bool in_box = box_row && u >= u0 && u < u1;
-      const int x = u - static_cast<int>(p.truth(u, v));
-      const bool right_box = box_row && x + box_d >= u0 && x + box_d < u1;
-      p.visible(u, v) = x >= 0 && right_box == in_box ? 1 : 0;
-    }
-  }
-  addNoise(rng, 2.0, &p.left);
-  addNoise(rng, 2.0, &p.right);
-  return p;
-}
+// Synthetic rectified pairs (seeded; the layered pair is in support_value_test_support.h).
 
 /// A slanted plane d(u) = d0 + slope * u: the right view samples the scene (a smooth random
 /// texture along each row, linearly interpolated) at s = (x + d0) / (1 - slope).
@@ -169,13 +92,6 @@ Score score(const ImageF32& estimate, const ImageF32& truth, const ImageU8* mask
   s.density_pct = 100.0 * static_cast<double>(estimated) / static_cast<double>(evaluated);
   return s;
 }
-
-SupportValueOptions smallOptions(int max_d) {
-  SupportValueOptions o;
-  o.max_disparity_px = max_d;
-  return o;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Dense matcher on synthetic pairs.
 
@@ -520,108 +436,6 @@ TEST(SupportValueOptions, FillNamesRoundTrip) {
   EXPECT_NE(s.message().find("cubic"), std::string::npos);
   EXPECT_EQ(f, SupportFill::kLinear);
 }
-
-// ---------------------------------------------------------------------------------------------
-// Salient matcher.
-
-std::vector<Corner> gridCorners(int width, int height, int step) {
-  std::vector<Corner> corners;
-  for (int v = step / 2; v < height; v += step) {
-    for (int u = step / 2; u < width; u += step) corners.push_back({u, v, 1.0f});
-  }
-  return corners;
-}
-
-TEST(SupportValueSalient, BestHypothesisIsTheTruthAtVisiblePoints) {
-  const SyntheticPair p = makeLayeredPair(31, 192, 120, 4, 16);
-  const std::vector<Corner> corners = gridCorners(192, 120, 7);
-  StereoHypotheses hyps;
-  ASSERT_TRUE(matchSupportValueSalient(p.left, p.right, corners, smallOptions(24), &hyps).isOk());
-  ASSERT_EQ(hyps.points.size(), corners.size());
-  size_t visible = 0, right_best = 0, consistent = 0;
-  for (size_t i = 0; i < hyps.points.size(); ++i) {
-    const SalientPoint& pt = hyps.points[i];
-    EXPECT_EQ(pt.corner.u_px, corners[i].u_px);  // input order
-    for (uint32_t k = 0; k < pt.num_hypotheses; ++k) {
-      const DisparityHypothesis& h = hyps.hypotheses[pt.first_hypothesis + k];
-      EXPECT_EQ(h.point_index, i);
-      EXPECT_EQ(h.rank, k);
-      if (k > 0) {
-        EXPECT_GE(h.cost, hyps.hypotheses[pt.first_hypothesis + k - 1].cost);
-      }
-    }
-    const int u = pt.corner.u_px, v = pt.corner.v_px;
-    // Visible and away from the box edges, where a 13x13 window sees one surface.
-    const bool near_edge = std::abs(u - 64) < 8 || std::abs(u - 128) < 8 || std::abs(u - 48) < 8 ||
-                           std::abs(v - 30) < 8 || std::abs(v - 90) < 8;
-    if (!p.visible(u, v) || near_edge || u < 24) continue;
-    ++visible;
-    if (pt.num_hypotheses == 0) continue;
-    const DisparityHypothesis& best = hyps.hypotheses[pt.first_hypothesis];
-    if (std::abs(best.d_px - p.truth(u, v)) <= kExactTol) {
-      ++right_best;
-      consistent += best.lr_consistent ? 1 : 0;
-    }
-  }
-  ASSERT_GT(visible, 100u);
-  EXPECT_GE(100.0 * static_cast<double>(right_best) / static_cast<double>(visible), 98.0);
-  EXPECT_GE(100.0 * static_cast<double>(consistent) / static_cast<double>(right_best), 98.0);
-}
-
-TEST(SupportValueSalient, PeriodicTextureGivesRivalHypotheses) {
-  // A texture repeating every 8 columns: the true disparity (5) and its aliases 13, 21 score
-  // alike, so a point keeps several hypotheses.
-  const int width = 120, height = 40, period = 8, d_true = 5;
-  std::mt19937 rng(32);
-  const std::vector<uint8_t> tile = texture(rng, period, height);
-  ImageU8 left(width, height), right(width, height);
-  for (int v = 0; v < height; ++v) {
-    for (int u = 0; u < width; ++u) {
-      left(u, v) = tile[static_cast<size_t>(v) * period + u % period];
-      right(u, v) = tile[static_cast<size_t>(v) * period + (u + d_true) % period];
-    }
-  }
-  SupportValueOptions o = smallOptions(30);
-  StereoHypotheses hyps;
-  ASSERT_TRUE(matchSupportValueSalient(left, right, {{80, 20, 1.0f}}, o, &hyps).isOk());
-  ASSERT_EQ(hyps.points.size(), 1u);
-  const SalientPoint& pt = hyps.points[0];
-  EXPECT_GE(pt.num_hypotheses, 3u);
-  bool has_truth = false;
-  for (uint32_t k = 0; k < pt.num_hypotheses; ++k) {
-    const float d = hyps.hypotheses[pt.first_hypothesis + k].d_px;
-    EXPECT_EQ(static_cast<int>(d) % period, d_true) << d;
-    has_truth = has_truth || d == static_cast<float>(d_true);
-  }
-  EXPECT_TRUE(has_truth);
-  o.max_hypotheses = 2;
-  ASSERT_TRUE(matchSupportValueSalient(left, right, {{80, 20, 1.0f}}, o, &hyps).isOk());
-  EXPECT_EQ(hyps.points[0].num_hypotheses, 2u);
-  EXPECT_FALSE(hyps.points[0].complete);  // an alias was dropped for want of room
-}
-
-TEST(SupportValueSalient, SkipsOutsideCornersAndKeepsOutputOnError) {
-  const SyntheticPair p = makeLayeredPair(33, 96, 48, 3, 3);
-  StereoHypotheses hyps;
-  hyps.t_ns = 42;
-  const std::vector<Corner> corners = {{-1, 5, 1.0f}, {40, 20, 1.0f}, {96, 5, 1.0f}, {3, 47, 1.0f}};
-  ASSERT_TRUE(matchSupportValueSalient(p.left, p.right, corners, smallOptions(10), &hyps).isOk());
-  ASSERT_EQ(hyps.points.size(), 2u);
-  EXPECT_EQ(hyps.points[0].corner.u_px, 40);
-  EXPECT_EQ(hyps.points[1].corner.u_px, 3);
-  EXPECT_FALSE(hyps.points[1].complete);  // u = 3 < max disparity: the search was cut short
-  EXPECT_EQ(hyps.t_ns, 42);
-  const size_t n_points = hyps.points.size();
-  SupportValueOptions bad = smallOptions(10);
-  bad.max_hypotheses = 0;
-  EXPECT_FALSE(matchSupportValueSalient(p.left, p.right, corners, bad, &hyps).isOk());
-  EXPECT_FALSE(
-      matchSupportValueSalient(p.left, ImageU8(), corners, smallOptions(10), &hyps).isOk());
-  EXPECT_FALSE(
-      matchSupportValueSalient(p.left, p.right, corners, smallOptions(10), nullptr).isOk());
-  EXPECT_EQ(hyps.points.size(), n_points);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Middlebury (shared data; skipped when absent). Figures of docs/matchers/support_value.md.
 
