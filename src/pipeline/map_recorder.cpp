@@ -57,31 +57,85 @@ bool stereoPointCovariance(const StereoRig& rig,
   return true;
 }
 
+Status MapRecorder::openStore(const std::string& path,
+                              const MapRecorderOptions& options,
+                              std::unique_ptr<store::LandmarkStore>* st,
+                              store::StoreInfo* info) {
+  if (Status s = options.validate(); !s) return s;
+  if (Status s =
+          store::LandmarkStore::open(path, store::OpenMode::kCreateOrExtend, st, options.store);
+      !s)
+    return s;
+  return (*st)->info(info);
+}
+
 Status MapRecorder::open(const std::string& path,
                          const std::string& rig_text,
                          const std::string& config_text,
                          const std::string& log_path,
                          const MapRecorderOptions& options,
                          std::unique_ptr<MapRecorder>* out) {
-  if (Status s = options.validate(); !s) return s;
   std::unique_ptr<store::LandmarkStore> st;
-  if (Status s =
-          store::LandmarkStore::open(path, store::OpenMode::kCreateOrExtend, &st, options.store);
-      !s)
-    return s;
   store::StoreInfo info;
-  if (Status s = st->info(&info); !s) return s;
+  if (Status s = openStore(path, options, &st, &info); !s) return s;
   if (info.landmark_count > 0) {
-    return Status::error(
-        path + ": the map already holds " + std::to_string(info.landmark_count) +
-        " landmarks; merging a run into a map is not built yet (give a new --map path, or "
-        "--localize-only to localise in it)");
+    return Status::error(path + ": the map already holds " + std::to_string(info.landmark_count) +
+                         " landmarks; a run is recorded into it only once placed in it "
+                         "(MapRecorder::extend)");
   }
   std::unique_ptr<MapRecorder> r(new MapRecorder());
   r->options_ = options;
   if (Status s = st->beginSession(rig_text, config_text, log_path, &r->session_); !s) return s;
   r->store_ = std::move(st);
   *out = std::move(r);
+  return Status::ok();
+}
+
+Status MapRecorder::extend(const std::string& path,
+                           const std::string& rig_text,
+                           const std::string& config_text,
+                           const std::string& log_path,
+                           const Eigen::Isometry3d& T_m_o,
+                           int32_t placed_frame,
+                           const MapRecorderOptions& options,
+                           std::unique_ptr<MapRecorder>* out) {
+  std::unique_ptr<store::LandmarkStore> st;
+  store::StoreInfo info;
+  if (Status s = openStore(path, options, &st, &info); !s) return s;
+  std::vector<store::StoredLandmark> stored;
+  if (Status s = st->loadAll(&stored); !s) return s;
+  std::unique_ptr<MapRecorder> r(new MapRecorder());
+  r->options_ = options;
+  r->extending_ = true;
+  r->T_m_o_ = T_m_o;
+  r->placed_frame_ = placed_frame;
+  r->first_new_id_ = r->next_id_ = info.next_landmark_id;
+  r->earlier_.reserve(stored.size());
+  for (store::StoredLandmark& l : stored) {
+    const uint64_t id = l.id;
+    r->earlier_.emplace(id, std::move(l));
+  }
+  if (Status s = st->beginSession(rig_text, config_text, log_path, &r->session_); !s) return s;
+  r->store_ = std::move(st);
+  *out = std::move(r);
+  return Status::ok();
+}
+
+Status MapRecorder::adoptRestored(const std::vector<uint64_t>& tracker_ids,
+                                  const std::vector<uint64_t>& map_ids) {
+  if (!extending_) return Status::error("adoptRestored: the recorder is not extending a map");
+  if (tracker_ids.size() != map_ids.size()) {
+    return Status::error("adoptRestored: " + std::to_string(tracker_ids.size()) +
+                         " tracker ids for " + std::to_string(map_ids.size()) + " map landmarks");
+  }
+  for (size_t i = 0; i < map_ids.size(); ++i) {
+    if (earlier_.count(map_ids[i]) == 0) {
+      return Status::error("adoptRestored: landmark " + std::to_string(map_ids[i]) +
+                           " is not in the map");
+    }
+    store_id_[tracker_ids[i]] = map_ids[i];
+    restored_.insert(tracker_ids[i]);
+  }
   return Status::ok();
 }
 
@@ -93,53 +147,83 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
   kf.session = session_;
   kf.frame = frame.log.index;
   kf.t_ns = t_ns;
-  kf.T_m_b = toIsometry(frame.output.pose);
+  kf.T_m_b = extending_ ? T_m_o_ * toIsometry(frame.output.pose) : toIsometry(frame.output.pose);
   batch_.keyframes.push_back(kf);
+  ++keyframes_written_;
 
   // Each landmark once per batch, with its state after the batch's last frame that saw it.
   std::unordered_map<uint64_t, size_t> queued;
   for (size_t i = 0; i < batch_.upserts.size(); ++i) queued[batch_.upserts[i].id] = i;
   const double sigma_px = db.options().tracker.pixel_sigma_px;
   const double sigma_d_px = db.options().tracker.disparity_sigma_px;
+  // The row of an earlier session's landmark the run re-saw: the stored one with the run's
+  // observations added.
+  const auto update = [&](const landmarks::Landmark& l, uint64_t sid) {
+    store::StoredLandmark s = earlier_.at(sid);
+    s.observations += l.n_obs;
+    s.confidence = l.confidence;
+    s.last_seen_frame = l.last_seen_frame;
+    s.last_seen_t_ns = t_ns;
+    updated_.insert(sid);
+    return s;
+  };
   const auto record = [&](uint64_t id) {
     const landmarks::Landmark* l = db.find(id);
     if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) return;
+    uint64_t sid = id;
+    if (extending_) {
+      const auto known = store_id_.find(id);
+      if (known != store_id_.end()) {
+        sid = known->second;
+      } else if (l->confirmed_frame <= placed_frame_) {
+        return;  // confirmed before the map's landmarks joined: may be one of theirs
+      } else {
+        sid = next_id_++;
+        store_id_.emplace(id, sid);
+      }
+    }
     store::StoredLandmark s;
-    s.id = l->id;
-    s.p_m = l->p_w;
-    const Eigen::Isometry3d T_w_cl =
-        landmarks::cameraPoseInWorld(l->anchor.odom_pose, db.rig().T_b_cl);
-    if (!stereoPointCovariance(db.rig(),
-                               T_w_cl,
-                               l->anchor.u_px,
-                               l->anchor.v_px,
-                               l->anchor.d_px,
-                               sigma_px,
-                               sigma_d_px,
-                               &s.cov_m)) {
-      s.cov_m.setZero();
+    if (restored_.count(id) > 0) {
+      s = update(*l, sid);
+    } else {
+      s.id = sid;
+      s.p_m = extending_ ? T_m_o_ * l->p_w : l->p_w;
+      const Eigen::Isometry3d T_w_cl =
+          landmarks::cameraPoseInWorld(l->anchor.odom_pose, db.rig().T_b_cl);
+      if (!stereoPointCovariance(db.rig(),
+                                 T_w_cl,
+                                 l->anchor.u_px,
+                                 l->anchor.v_px,
+                                 l->anchor.d_px,
+                                 sigma_px,
+                                 sigma_d_px,
+                                 &s.cov_m)) {
+        s.cov_m.setZero();
+      } else if (extending_) {
+        s.cov_m = T_m_o_.linear() * s.cov_m * T_m_o_.linear().transpose();
+      }
+      s.confidence = l->confidence;
+      s.observations = l->n_obs;
+      s.session = session_;
+      s.first_seen_frame = l->first_frame;
+      s.last_seen_frame = l->last_seen_frame;
+      s.first_seen_t_ns = l->first_t_ns;
+      s.last_seen_t_ns = t_ns;
+      if (const auto d = descriptors_.find(id); d != descriptors_.end()) {
+        s.descriptor_kind = storedDescriptorKind(d->second.kind);
+        const auto n = static_cast<size_t>(frontend::descriptorBytes(d->second.kind));
+        s.descriptor.assign(d->second.bytes.begin(), d->second.bytes.begin() + n);
+      }
+      in_store_.insert(id);
     }
-    s.confidence = l->confidence;
-    s.observations = l->n_obs;
-    s.session = session_;
-    s.first_seen_frame = l->first_frame;
-    s.last_seen_frame = l->last_seen_frame;
-    s.first_seen_t_ns = l->first_t_ns;
-    s.last_seen_t_ns = t_ns;
-    if (const auto d = descriptors_.find(id); d != descriptors_.end()) {
-      s.descriptor_kind = storedDescriptorKind(d->second.kind);
-      const auto n = static_cast<size_t>(frontend::descriptorBytes(d->second.kind));
-      s.descriptor.assign(d->second.bytes.begin(), d->second.bytes.begin() + n);
-    }
-    const auto it = queued.find(id);
+    const auto it = queued.find(sid);
     if (it != queued.end()) {
       s.first_seen_t_ns = batch_.upserts[it->second].first_seen_t_ns;
       batch_.upserts[it->second] = s;
     } else {
-      queued[id] = batch_.upserts.size();
+      queued[sid] = batch_.upserts.size();
       batch_.upserts.push_back(s);
     }
-    in_store_.insert(id);
   };
   // Descriptors of the landmarks confirmed in this frame, at their projection in its left image.
   if (!report.confirmed_ids.empty()) {
@@ -171,7 +255,12 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
   for (uint64_t id : report.associated_ids) record(id);
   for (uint64_t id : report.removed_ids) {
     descriptors_.erase(id);
-    if (in_store_.erase(id) > 0) batch_.removed.push_back(id);
+    // Only the session's own landmarks leave the map; a restored one stays (the run's tracker
+    // dropping it says nothing against the earlier session's evidence).
+    if (in_store_.erase(id) > 0) {
+      const auto known = store_id_.find(id);
+      batch_.removed.push_back(known != store_id_.end() ? known->second : id);
+    }
   }
   if (++frames_in_batch_ >= options_.frames_per_commit) return flush();
   return Status::ok();
