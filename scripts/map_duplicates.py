@@ -100,8 +100,28 @@ def true_poses(run_dir):
     return poses  # one per frame, frames from 0
 
 
-def true_points(run_dir, rig, T_b_cl):
-    """(confirmed_frame, true point) of the run's own confirmed landmarks with ground truth."""
+def read_tum(path):
+    out = {}
+    with open(path) as f:
+        for line in f:
+            if line.startswith("#") or not line.strip():
+                continue
+            t, x, y, z, qx, qy, qz, qw = (float(v) for v in line.split())
+            out[round(t, 6)] = (quat_matrix(qw, qx, qy, qz), (x, y, z))
+    return out
+
+
+def map_from_run(run_dir):
+    """T_m_o of a run relocalised in the map: its first map-frame pose against its estimate."""
+    m = read_tum(f"{run_dir}/trajectory_map.tum")
+    e = read_tum(f"{run_dir}/trajectory_est.tum")
+    t = min(m)
+    return compose(m[t], inverse(e[t]))
+
+
+def true_points(run_dir, rig, T_b_cl, in_map=None):
+    """(confirmed_frame, true point) of the run's own confirmed landmarks with ground truth; with
+    in_map (T_m_o, grid and points of the map's rows of the session), only those in the map."""
     import csv
     poses = true_poses(run_dir)
     out = []
@@ -109,6 +129,11 @@ def true_points(run_dir, rig, T_b_cl):
         for r in csv.DictReader(f):
             if r["confirmed"] != "1" or not r["anchor_d_gt"]:
                 continue  # a candidate, or restored from the map / no truth at its anchor
+            if in_map is not None:
+                T_m_o, g, pts = in_map
+                p_m = apply(T_m_o, (float(r["x"]), float(r["y"]), float(r["z"])))
+                if not near(g, pts, p_m, 0.001, 0.001):
+                    continue  # merged into an earlier landmark, or not recorded
             u, v = float(r["anchor_u"]), float(r["anchor_v"])
             z = rig["fx_px"] * rig["baseline_m"] / float(r["anchor_d_gt"])
             p_cl = ((u - rig["cx_px"]) / rig["fx_px"] * z, (v - rig["cy_px"]) / rig["fy_px"] * z, z)
@@ -117,14 +142,17 @@ def true_points(run_dir, rig, T_b_cl):
     return out, poses
 
 
-def truth_duplicates(run_dirs, rig_text):
+def truth_duplicates(run_dirs, rig_text, by_session):
     rig, T_b_cl = parse_rig(rig_text)
     fb = rig["fx_px"] * rig["baseline_m"]
     cell = 0.1
     earlier, _ = true_points(run_dirs[0], rig, T_b_cl)
     earlier = [p for _, p in earlier]
     for k, run_dir in enumerate(run_dirs[1:], start=2):
-        pts, poses = true_points(run_dir, rig, T_b_cl)
+        rows = by_session.get(k, [])
+        all_pts, _ = true_points(run_dir, rig, T_b_cl)
+        pts, poses = true_points(run_dir, rig, T_b_cl,
+                                 (map_from_run(run_dir), grid(rows, 0.001), rows))
         g = grid(earlier, cell)
         dup = 0
         for frame, p in pts:
@@ -155,9 +183,10 @@ def truth_duplicates(run_dirs, rig_text):
                 if found:
                     break
             dup += found
-        print(f"session {k} (true points, {run_dir}): {len(pts)} confirmations with ground truth, "
-              f"{dup} ({100.0 * dup / max(1, len(pts)):.2f} %) the true point of an earlier "
-              f"session's landmark (within 1 px in u, v, d)")
+        print(f"session {k} (true points, {run_dir}): of its {len(all_pts)} confirmations with "
+              f"ground truth {len(pts)} are rows of the map, {dup} of those "
+              f"({100.0 * dup / max(1, len(pts)):.2f} %) the true point of an earlier session's "
+              f"landmark (within 1 px in u, v, d)")
         earlier.extend(p for _, p in pts)
 
 
@@ -203,7 +232,7 @@ def main():
               f"({100.0 * total_dup / max(1, len(rows)):.2f} %)")
     if a.runs:
         rig_text = db.execute("SELECT rig FROM sessions ORDER BY id LIMIT 1").fetchone()[0]
-        truth_duplicates(a.runs, rig_text)
+        truth_duplicates(a.runs, rig_text, by_session)
     return 0
 
 

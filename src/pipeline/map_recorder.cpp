@@ -16,6 +16,14 @@ Status MapRecorderOptions::validate() const {
     return Status::error("map.frames_per_commit: " + std::to_string(frames_per_commit) +
                          " (must be in [1, 100000])");
   }
+  if (!(merge_radius_m >= 0.0 && merge_radius_m <= 1.0)) {
+    return Status::error("map.merge_radius_m: " + std::to_string(merge_radius_m) +
+                         " (must be in [0, 1])");
+  }
+  if (!(merge_max_descriptor_distance >= 0.0 && merge_max_descriptor_distance <= 2.0)) {
+    return Status::error("map.merge_max_descriptor_distance: " +
+                         std::to_string(merge_max_descriptor_distance) + " (must be in [0, 2])");
+  }
   if (Status s = descriptors.validate("map.descriptors."); !s) return s;
   return store.validate();
 }
@@ -111,14 +119,55 @@ Status MapRecorder::extend(const std::string& path,
   r->placed_frame_ = placed_frame;
   r->first_new_id_ = r->next_id_ = info.next_landmark_id;
   r->earlier_.reserve(stored.size());
+  const uint8_t kind = storedDescriptorKind(options.descriptors.kind);
   for (store::StoredLandmark& l : stored) {
     const uint64_t id = l.id;
+    if (options.merge_radius_m > 0.0 && l.descriptor_kind == kind)
+      r->earlier_cells_[r->cellKey(l.p_m, 0, 0, 0)].push_back(id);
     r->earlier_.emplace(id, std::move(l));
   }
   if (Status s = st->beginSession(rig_text, config_text, log_path, &r->session_); !s) return s;
   r->store_ = std::move(st);
   *out = std::move(r);
   return Status::ok();
+}
+
+uint64_t MapRecorder::cellKey(const Eigen::Vector3d& p_m, int dx, int dy, int dz) const {
+  // 21 bits per axis around the origin: +-1 M cells (+-50 km at 5 cm).
+  const auto cell = [&](double x, int d) {
+    const auto c = static_cast<int64_t>(std::floor(x / options_.merge_radius_m)) + d;
+    return static_cast<uint64_t>(c + (int64_t{1} << 20)) & 0x1FFFFF;
+  };
+  return (cell(p_m.x(), dx) << 42) | (cell(p_m.y(), dy) << 21) | cell(p_m.z(), dz);
+}
+
+uint64_t MapRecorder::mergeTarget(const Eigen::Vector3d& p_m, const frontend::Descriptor& d) const {
+  if (options_.merge_radius_m <= 0.0) return 0;
+  const auto bytes = static_cast<size_t>(frontend::descriptorBytes(d.kind));
+  uint64_t best = 0;
+  double best_distance = options_.merge_max_descriptor_distance;
+  frontend::Descriptor other;
+  other.kind = d.kind;
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dz = -1; dz <= 1; ++dz) {
+        const auto cell = earlier_cells_.find(cellKey(p_m, dx, dy, dz));
+        if (cell == earlier_cells_.end()) continue;
+        for (uint64_t id : cell->second) {
+          const store::StoredLandmark& l = earlier_.at(id);
+          if ((l.p_m - p_m).norm() > options_.merge_radius_m || l.descriptor.size() != bytes)
+            continue;
+          std::copy(l.descriptor.begin(), l.descriptor.end(), other.bytes.begin());
+          const double dist = frontend::descriptorDistance(d, other);
+          if (dist <= best_distance) {
+            best_distance = dist;
+            best = id;
+          }
+        }
+      }
+    }
+  }
+  return best;
 }
 
 Status MapRecorder::adoptRestored(const std::vector<uint64_t>& tracker_ids,
@@ -135,6 +184,7 @@ Status MapRecorder::adoptRestored(const std::vector<uint64_t>& tracker_ids,
     }
     store_id_[tracker_ids[i]] = map_ids[i];
     restored_.insert(tracker_ids[i]);
+    seen_as_[map_ids[i]].push_back(tracker_ids[i]);
   }
   return Status::ok();
 }
@@ -158,9 +208,12 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
   const double sigma_d_px = db.options().tracker.disparity_sigma_px;
   // The row of an earlier session's landmark the run re-saw: the stored one with the run's
   // observations added.
+  // observations added from every tracker landmark that is this one.
   const auto update = [&](const landmarks::Landmark& l, uint64_t sid) {
     store::StoredLandmark s = earlier_.at(sid);
-    s.observations += l.n_obs;
+    for (uint64_t tid : seen_as_[sid]) {
+      if (const landmarks::Landmark* seen = db.find(tid)) s.observations += seen->n_obs;
+    }
     s.confidence = l.confidence;
     s.last_seen_frame = l.last_seen_frame;
     s.last_seen_t_ns = t_ns;
@@ -177,6 +230,12 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
         sid = known->second;
       } else if (l->confirmed_frame <= placed_frame_) {
         return;  // confirmed before the map's landmarks joined: may be one of theirs
+      } else if (const auto d = descriptors_.find(id);
+                 d != descriptors_.end() && (sid = mergeTarget(T_m_o_ * l->p_w, d->second)) != 0) {
+        store_id_.emplace(id, sid);  // an earlier session's landmark the tracker missed
+        restored_.insert(id);
+        seen_as_[sid].push_back(id);
+        ++merged_;
       } else {
         sid = next_id_++;
         store_id_.emplace(id, sid);

@@ -39,6 +39,15 @@ struct MapRecorderOptions {
   /// frame that confirmed it at its projection there (frontend/descriptors.h). ORB by default:
   /// docs/relocalization.md.
   frontend::DescriptorOptions descriptors;
+  /// Extending a map: a landmark the run confirms within `merge_radius_m` of an earlier
+  /// session's landmark whose descriptor is within `merge_max_descriptor_distance` of its own
+  /// (the nearest such by descriptor) is that landmark seen again, not a new one: the earlier row
+  /// is updated. The map is only as consistent as the run that built it (2-3 cm apart between its
+  /// regions on office), so a restored landmark the tracker's gates missed is caught here [m];
+  /// 0 switches the merge off.
+  double merge_radius_m = 0.05;
+  /// Descriptor distance of a merge (frontend::descriptorDistance: ORB bits / 256) [-].
+  double merge_max_descriptor_distance = 0.2;
   [[nodiscard]] Status validate() const;
 };
 
@@ -103,6 +112,9 @@ class MapRecorder {
   [[nodiscard]] int64_t landmarksWritten() const { return static_cast<int64_t>(in_store_.size()); }
   /// Extending: earlier sessions' landmarks this session saw again (updated rows).
   [[nodiscard]] int64_t landmarksUpdated() const { return static_cast<int64_t>(updated_.size()); }
+  /// Extending: landmarks the run confirmed that were merged into an earlier session's
+  /// (MapRecorderOptions::merge_radius_m).
+  [[nodiscard]] int64_t landmarksMerged() const { return merged_; }
   /// Poses written (one per recorded frame).
   [[nodiscard]] int64_t keyframesWritten() const { return keyframes_written_; }
   [[nodiscard]] bool extending() const { return extending_; }
@@ -142,6 +154,14 @@ class MapRecorder {
   std::unordered_map<uint64_t, store::StoredLandmark> earlier_;
   /// Store ids of earlier landmarks the session updated.
   std::unordered_set<uint64_t> updated_;
+  /// Store id -> the tracker ids that saw it (restored, and merged confirmations).
+  std::unordered_map<uint64_t, std::vector<uint64_t>> seen_as_;
+  /// Earlier landmarks by merge_radius_m cell of p_m.
+  std::unordered_map<uint64_t, std::vector<uint64_t>> earlier_cells_;
+  int64_t merged_ = 0;
+  /// The earlier landmark a new confirmation at p_m with this descriptor is, or 0.
+  uint64_t mergeTarget(const Eigen::Vector3d& p_m, const frontend::Descriptor& d) const;
+  [[nodiscard]] uint64_t cellKey(const Eigen::Vector3d& p_m, int dx, int dy, int dz) const;
 };
 
 }  // namespace twocam::pipeline

@@ -119,7 +119,8 @@ std::string MapSession::summaryLine(int processed_frames) const {
     return "map: session " + std::to_string(recorder_->session()) + " added " +
            std::to_string(recorder_->landmarksWritten()) + " landmarks (ids from " +
            std::to_string(recorder_->firstNewId()) + "), saw " +
-           std::to_string(recorder_->landmarksUpdated()) + " of the map's again, " +
+           std::to_string(recorder_->landmarksUpdated()) + " of the map's again (" +
+           std::to_string(recorder_->landmarksMerged()) + " confirmations merged into them), " +
            std::to_string(recorder_->keyframesWritten()) + " poses in " + path_;
   }
   return "map: " + std::to_string(recorder_->landmarksWritten()) + " landmarks and " +
