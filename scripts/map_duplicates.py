@@ -120,8 +120,9 @@ def map_from_run(run_dir):
 
 
 def true_points(run_dir, rig, T_b_cl, in_map=None):
-    """(confirmed_frame, true point) of the run's own confirmed landmarks with ground truth; with
-    in_map (T_m_o, grid and points of the map's rows of the session), only those in the map."""
+    """(confirmed_frame, true point, in the map) of the run's own confirmed landmarks with ground
+    truth; with in_map (T_m_o, grid and points of the map's rows of the session) whether each is
+    a row of the map (else merged into an earlier landmark, or not recorded)."""
     import csv
     poses = true_poses(run_dir)
     out = []
@@ -129,16 +130,16 @@ def true_points(run_dir, rig, T_b_cl, in_map=None):
         for r in csv.DictReader(f):
             if r["confirmed"] != "1" or not r["anchor_d_gt"]:
                 continue  # a candidate, or restored from the map / no truth at its anchor
+            row = True
             if in_map is not None:
                 T_m_o, g, pts = in_map
                 p_m = apply(T_m_o, (float(r["x"]), float(r["y"]), float(r["z"])))
-                if not near(g, pts, p_m, 0.001, 0.001):
-                    continue  # merged into an earlier landmark, or not recorded
+                row = near(g, pts, p_m, 0.001, 0.001)
             u, v = float(r["anchor_u"]), float(r["anchor_v"])
             z = rig["fx_px"] * rig["baseline_m"] / float(r["anchor_d_gt"])
             p_cl = ((u - rig["cx_px"]) / rig["fx_px"] * z, (v - rig["cy_px"]) / rig["fy_px"] * z, z)
             T_w_cl = compose(poses[int(r["anchor_frame"])], T_b_cl)
-            out.append((int(r["confirmed_frame"]), apply(T_w_cl, p_cl)))
+            out.append((int(r["confirmed_frame"]), apply(T_w_cl, p_cl), row))
     return out, poses
 
 
@@ -147,15 +148,15 @@ def truth_duplicates(run_dirs, rig_text, by_session):
     fb = rig["fx_px"] * rig["baseline_m"]
     cell = 0.1
     earlier, _ = true_points(run_dirs[0], rig, T_b_cl)
-    earlier = [p for _, p in earlier]
+    earlier = [p for _, p, _ in earlier]
     for k, run_dir in enumerate(run_dirs[1:], start=2):
         rows = by_session.get(k, [])
-        all_pts, _ = true_points(run_dir, rig, T_b_cl)
         pts, poses = true_points(run_dir, rig, T_b_cl,
                                  (map_from_run(run_dir), grid(rows, 0.001), rows))
         g = grid(earlier, cell)
-        dup = 0
-        for frame, p in pts:
+        dup = {True: 0, False: 0}
+        count = {True: 0, False: 0}
+        for frame, p, row in pts:
             T_cl_w = inverse(compose(poses[frame], T_b_cl))
 
             def uvd(q):
@@ -182,12 +183,16 @@ def truth_duplicates(run_dirs, rig_text, by_session):
                         break
                 if found:
                     break
-            dup += found
-        print(f"session {k} (true points, {run_dir}): of its {len(all_pts)} confirmations with "
-              f"ground truth {len(pts)} are rows of the map, {dup} of those "
-              f"({100.0 * dup / max(1, len(pts)):.2f} %) the true point of an earlier session's "
-              f"landmark (within 1 px in u, v, d)")
-        earlier.extend(p for _, p in pts)
+            dup[row] += found
+            count[row] += 1
+        n = count[True] + count[False]
+        print(f"session {k} (true points, {run_dir}): of its {n} confirmations with ground truth "
+              f"{count[True]} are rows of the map, {dup[True]} of those "
+              f"({100.0 * dup[True] / max(1, count[True]):.2f} %) the true point of an earlier "
+              f"session's landmark (within 1 px in u, v, d); {count[False]} not rows (merged into "
+              f"an earlier landmark), {dup[False]} of those "
+              f"({100.0 * dup[False] / max(1, count[False]):.2f} %) an earlier one's true point")
+        earlier.extend(p for _, p, row in pts if row)
 
 
 def main():

@@ -1,6 +1,7 @@
 #include "pipeline/map_recorder.h"
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -19,6 +20,11 @@ Status MapRecorderOptions::validate() const {
   if (!(merge_radius_m >= 0.0 && merge_radius_m <= 1.0)) {
     return Status::error("map.merge_radius_m: " + std::to_string(merge_radius_m) +
                          " (must be in [0, 1])");
+  }
+  if (!(merge_map_sigma_m >= 0.0 && merge_map_sigma_m <= 1.0) || !(merge_gate_chi2 > 0.0)) {
+    return Status::error("map.merge_map_sigma_m: " + std::to_string(merge_map_sigma_m) +
+                         " (must be in [0, 1]) and map.merge_gate_chi2: " +
+                         std::to_string(merge_gate_chi2) + " (must be > 0)");
   }
   if (!(merge_max_descriptor_distance >= 0.0 && merge_max_descriptor_distance <= 2.0)) {
     return Status::error("map.merge_max_descriptor_distance: " +
@@ -141,7 +147,9 @@ uint64_t MapRecorder::cellKey(const Eigen::Vector3d& p_m, int dx, int dy, int dz
   return (cell(p_m.x(), dx) << 42) | (cell(p_m.y(), dy) << 21) | cell(p_m.z(), dz);
 }
 
-uint64_t MapRecorder::mergeTarget(const Eigen::Vector3d& p_m, const frontend::Descriptor& d) const {
+uint64_t MapRecorder::mergeTarget(const Eigen::Vector3d& p_m,
+                                  const Eigen::Matrix3d& cov_m,
+                                  const frontend::Descriptor& d) const {
   if (options_.merge_radius_m <= 0.0) return 0;
   const auto bytes = static_cast<size_t>(frontend::descriptorBytes(d.kind));
   uint64_t best = 0;
@@ -155,8 +163,11 @@ uint64_t MapRecorder::mergeTarget(const Eigen::Vector3d& p_m, const frontend::De
         if (cell == earlier_cells_.end()) continue;
         for (uint64_t id : cell->second) {
           const store::StoredLandmark& l = earlier_.at(id);
-          if ((l.p_m - p_m).norm() > options_.merge_radius_m || l.descriptor.size() != bytes)
-            continue;
+          const Eigen::Vector3d e = l.p_m - p_m;
+          if (e.norm() > options_.merge_radius_m || l.descriptor.size() != bytes) continue;
+          const double s2 = options_.merge_map_sigma_m * options_.merge_map_sigma_m;
+          const Eigen::Matrix3d S = l.cov_m + cov_m + 2.0 * s2 * Eigen::Matrix3d::Identity();
+          if (!(e.dot(S.ldlt().solve(e)) <= options_.merge_gate_chi2)) continue;
           std::copy(l.descriptor.begin(), l.descriptor.end(), other.bytes.begin());
           const double dist = frontend::descriptorDistance(d, other);
           if (dist <= best_distance) {
@@ -220,24 +231,47 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
     updated_.insert(sid);
     return s;
   };
+  // A new landmark's position covariance in the map frame (zero when its anchor has none).
+  const auto covariance = [&](const landmarks::Landmark& l) {
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    const Eigen::Isometry3d T_w_cl =
+        landmarks::cameraPoseInWorld(l.anchor.odom_pose, db.rig().T_b_cl);
+    if (!stereoPointCovariance(db.rig(),
+                               T_w_cl,
+                               l.anchor.u_px,
+                               l.anchor.v_px,
+                               l.anchor.d_px,
+                               sigma_px,
+                               sigma_d_px,
+                               &cov))
+      return Eigen::Matrix3d::Zero().eval();
+    if (extending_) cov = T_m_o_.linear() * cov * T_m_o_.linear().transpose();
+    return cov;
+  };
   const auto record = [&](uint64_t id) {
     const landmarks::Landmark* l = db.find(id);
     if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) return;
     uint64_t sid = id;
+    std::optional<Eigen::Matrix3d> cov_m;
     if (extending_) {
       const auto known = store_id_.find(id);
       if (known != store_id_.end()) {
         sid = known->second;
       } else if (l->confirmed_frame <= placed_frame_) {
         return;  // confirmed before the map's landmarks joined: may be one of theirs
-      } else if (const auto d = descriptors_.find(id);
-                 d != descriptors_.end() && (sid = mergeTarget(T_m_o_ * l->p_w, d->second)) != 0) {
-        store_id_.emplace(id, sid);  // an earlier session's landmark the tracker missed
-        restored_.insert(id);
-        seen_as_[sid].push_back(id);
-        ++merged_;
       } else {
-        sid = next_id_++;
+        cov_m = covariance(*l);
+        const auto d = descriptors_.find(id);
+        const uint64_t target =
+            d != descriptors_.end() ? mergeTarget(T_m_o_ * l->p_w, *cov_m, d->second) : 0;
+        if (target != 0) {
+          sid = target;  // an earlier session's landmark the tracker missed
+          restored_.insert(id);
+          seen_as_[sid].push_back(id);
+          ++merged_;
+        } else {
+          sid = next_id_++;
+        }
         store_id_.emplace(id, sid);
       }
     }
@@ -247,20 +281,7 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
     } else {
       s.id = sid;
       s.p_m = extending_ ? T_m_o_ * l->p_w : l->p_w;
-      const Eigen::Isometry3d T_w_cl =
-          landmarks::cameraPoseInWorld(l->anchor.odom_pose, db.rig().T_b_cl);
-      if (!stereoPointCovariance(db.rig(),
-                                 T_w_cl,
-                                 l->anchor.u_px,
-                                 l->anchor.v_px,
-                                 l->anchor.d_px,
-                                 sigma_px,
-                                 sigma_d_px,
-                                 &s.cov_m)) {
-        s.cov_m.setZero();
-      } else if (extending_) {
-        s.cov_m = T_m_o_.linear() * s.cov_m * T_m_o_.linear().transpose();
-      }
+      s.cov_m = cov_m ? *cov_m : covariance(*l);
       s.confidence = l->confidence;
       s.observations = l->n_obs;
       s.session = session_;

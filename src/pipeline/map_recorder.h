@@ -39,13 +39,19 @@ struct MapRecorderOptions {
   /// frame that confirmed it at its projection there (frontend/descriptors.h). ORB by default:
   /// docs/relocalization.md.
   frontend::DescriptorOptions descriptors;
-  /// Extending a map: a landmark the run confirms within `merge_radius_m` of an earlier
-  /// session's landmark whose descriptor is within `merge_max_descriptor_distance` of its own
-  /// (the nearest such by descriptor) is that landmark seen again, not a new one: the earlier row
-  /// is updated. The map is only as consistent as the run that built it (2-3 cm apart between its
-  /// regions on office), so a restored landmark the tracker's gates missed is caught here [m];
-  /// 0 switches the merge off.
-  double merge_radius_m = 0.05;
+  /// Extending a map: a landmark the run confirms close to an earlier session's landmark whose
+  /// descriptor is within `merge_max_descriptor_distance` of its own (the nearest such by
+  /// descriptor) is that landmark seen again, not a new one: the earlier row is updated. Close:
+  /// within `merge_radius_m` and within the `merge_gate_chi2` gate of their position covariances
+  /// plus `merge_map_sigma_m` on each axis. The map is only as consistent as the run that built
+  /// it (2-3 cm apart between its regions on office), so a restored landmark the tracker's gates
+  /// missed is caught here. The largest distance of a merge [m]; 0 switches the merge off.
+  double merge_radius_m = 0.3;
+  /// The map's inconsistency with the run, added to both covariances (sigma per axis) [m].
+  double merge_map_sigma_m = 0.02;
+  /// Gate on the squared Mahalanobis distance of the two positions: 11.34 is chi-squared's 99 %
+  /// for 3 degrees of freedom [-].
+  double merge_gate_chi2 = 11.34;
   /// Descriptor distance of a merge (frontend::descriptorDistance: ORB bits / 256) [-].
   double merge_max_descriptor_distance = 0.2;
   [[nodiscard]] Status validate() const;
@@ -159,8 +165,11 @@ class MapRecorder {
   /// Earlier landmarks by merge_radius_m cell of p_m.
   std::unordered_map<uint64_t, std::vector<uint64_t>> earlier_cells_;
   int64_t merged_ = 0;
-  /// The earlier landmark a new confirmation at p_m with this descriptor is, or 0.
-  uint64_t mergeTarget(const Eigen::Vector3d& p_m, const frontend::Descriptor& d) const;
+  /// The earlier landmark a new confirmation at p_m (covariance cov_m) with this descriptor is,
+  /// or 0.
+  uint64_t mergeTarget(const Eigen::Vector3d& p_m,
+                       const Eigen::Matrix3d& cov_m,
+                       const frontend::Descriptor& d) const;
   [[nodiscard]] uint64_t cellKey(const Eigen::Vector3d& p_m, int dx, int dy, int dz) const;
 };
 
