@@ -44,7 +44,7 @@ struct MapRecorderOptions {
   /// descriptor) is that landmark seen again, not a new one: the earlier row is updated. Close:
   /// within `merge_radius_m` and within the `merge_gate_chi2` gate of their position covariances
   /// plus `merge_map_sigma_m` on each axis. The map is only as consistent as the run that built
-  /// it (2-3 cm apart between its regions on office), so a restored landmark the tracker's gates
+  /// it (1-4 cm off in places on office), so a restored landmark the tracker's gates
   /// missed is caught here. The largest distance of a merge [m]; 0 switches the merge off.
   double merge_radius_m = 0.3;
   /// The map's inconsistency with the run, added to both covariances (sigma per axis) [m].
