@@ -103,6 +103,11 @@ int runRun(const RunArgs& args) {
     std::cout << "pictures:" << std::endl;
     drawPictures(writer->outputDir());
   }
+  if (map && !map->merged()) {
+    std::cerr << "twocam run: " << args.log_path << " was never placed in the map "
+              << *args.map_path << ": not merged, the map is unchanged" << std::endl;
+    return 2;
+  }
   return 0;
 }
 

@@ -162,7 +162,9 @@ int main(int argc, char** argv) {
       "--map",
       run_map,
       "Landmark store (SQLite, docs/store.md) to record the confirmed landmarks and the poses "
-      "in; created when missing (a map that holds landmarks cannot be continued yet)");
+      "in; created when missing. A map that holds landmarks is extended: the run is relocalised "
+      "in it first and, once placed, recorded as a new session in its frame; a run never placed "
+      "is not merged (exit status 2, the map unchanged)");
   run_cmd->add_flag("--localize-only",
                     run.localize_only,
                     "With --map: relocalise in the map (read only) and write the run's poses in "

@@ -1,6 +1,7 @@
 #include "pipeline/map_recorder.h"
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -15,6 +16,19 @@ Status MapRecorderOptions::validate() const {
   if (frames_per_commit < 1 || frames_per_commit > 100000) {
     return Status::error("map.frames_per_commit: " + std::to_string(frames_per_commit) +
                          " (must be in [1, 100000])");
+  }
+  if (!(merge_radius_m >= 0.0 && merge_radius_m <= 1.0)) {
+    return Status::error("map.merge_radius_m: " + std::to_string(merge_radius_m) +
+                         " (must be in [0, 1])");
+  }
+  if (!(merge_map_sigma_m >= 0.0 && merge_map_sigma_m <= 1.0) || !(merge_gate_chi2 > 0.0)) {
+    return Status::error("map.merge_map_sigma_m: " + std::to_string(merge_map_sigma_m) +
+                         " (must be in [0, 1]) and map.merge_gate_chi2: " +
+                         std::to_string(merge_gate_chi2) + " (must be > 0)");
+  }
+  if (!(merge_max_descriptor_distance >= 0.0 && merge_max_descriptor_distance <= 2.0)) {
+    return Status::error("map.merge_max_descriptor_distance: " +
+                         std::to_string(merge_max_descriptor_distance) + " (must be in [0, 2])");
   }
   if (Status s = descriptors.validate("map.descriptors."); !s) return s;
   return store.validate();
@@ -57,31 +71,132 @@ bool stereoPointCovariance(const StereoRig& rig,
   return true;
 }
 
+Status MapRecorder::openStore(const std::string& path,
+                              const MapRecorderOptions& options,
+                              std::unique_ptr<store::LandmarkStore>* st,
+                              store::StoreInfo* info) {
+  if (Status s = options.validate(); !s) return s;
+  if (Status s =
+          store::LandmarkStore::open(path, store::OpenMode::kCreateOrExtend, st, options.store);
+      !s)
+    return s;
+  return (*st)->info(info);
+}
+
 Status MapRecorder::open(const std::string& path,
                          const std::string& rig_text,
                          const std::string& config_text,
                          const std::string& log_path,
                          const MapRecorderOptions& options,
                          std::unique_ptr<MapRecorder>* out) {
-  if (Status s = options.validate(); !s) return s;
   std::unique_ptr<store::LandmarkStore> st;
-  if (Status s =
-          store::LandmarkStore::open(path, store::OpenMode::kCreateOrExtend, &st, options.store);
-      !s)
-    return s;
   store::StoreInfo info;
-  if (Status s = st->info(&info); !s) return s;
+  if (Status s = openStore(path, options, &st, &info); !s) return s;
   if (info.landmark_count > 0) {
-    return Status::error(
-        path + ": the map already holds " + std::to_string(info.landmark_count) +
-        " landmarks; merging a run into a map is not built yet (give a new --map path, or "
-        "--localize-only to localise in it)");
+    return Status::error(path + ": the map already holds " + std::to_string(info.landmark_count) +
+                         " landmarks; a run is recorded into it only once placed in it "
+                         "(MapRecorder::extend)");
   }
   std::unique_ptr<MapRecorder> r(new MapRecorder());
   r->options_ = options;
   if (Status s = st->beginSession(rig_text, config_text, log_path, &r->session_); !s) return s;
   r->store_ = std::move(st);
   *out = std::move(r);
+  return Status::ok();
+}
+
+Status MapRecorder::extend(const std::string& path,
+                           const std::string& rig_text,
+                           const std::string& config_text,
+                           const std::string& log_path,
+                           const Eigen::Isometry3d& T_m_o,
+                           int32_t placed_frame,
+                           const MapRecorderOptions& options,
+                           std::unique_ptr<MapRecorder>* out) {
+  std::unique_ptr<store::LandmarkStore> st;
+  store::StoreInfo info;
+  if (Status s = openStore(path, options, &st, &info); !s) return s;
+  std::vector<store::StoredLandmark> stored;
+  if (Status s = st->loadAll(&stored); !s) return s;
+  std::unique_ptr<MapRecorder> r(new MapRecorder());
+  r->options_ = options;
+  r->extending_ = true;
+  r->T_m_o_ = T_m_o;
+  r->placed_frame_ = placed_frame;
+  r->first_new_id_ = r->next_id_ = info.next_landmark_id;
+  r->earlier_.reserve(stored.size());
+  const uint8_t kind = storedDescriptorKind(options.descriptors.kind);
+  for (store::StoredLandmark& l : stored) {
+    const uint64_t id = l.id;
+    if (options.merge_radius_m > 0.0 && l.descriptor_kind == kind)
+      r->earlier_cells_[r->cellKey(l.p_m, 0, 0, 0)].push_back(id);
+    r->earlier_.emplace(id, std::move(l));
+  }
+  if (Status s = st->beginSession(rig_text, config_text, log_path, &r->session_); !s) return s;
+  r->store_ = std::move(st);
+  *out = std::move(r);
+  return Status::ok();
+}
+
+uint64_t MapRecorder::cellKey(const Eigen::Vector3d& p_m, int dx, int dy, int dz) const {
+  // 21 bits per axis around the origin: +-1 M cells (+-50 km at 5 cm).
+  const auto cell = [&](double x, int d) {
+    const auto c = static_cast<int64_t>(std::floor(x / options_.merge_radius_m)) + d;
+    return static_cast<uint64_t>(c + (int64_t{1} << 20)) & 0x1FFFFF;
+  };
+  return (cell(p_m.x(), dx) << 42) | (cell(p_m.y(), dy) << 21) | cell(p_m.z(), dz);
+}
+
+uint64_t MapRecorder::mergeTarget(const Eigen::Vector3d& p_m,
+                                  const Eigen::Matrix3d& cov_m,
+                                  const frontend::Descriptor& d) const {
+  if (options_.merge_radius_m <= 0.0) return 0;
+  const auto bytes = static_cast<size_t>(frontend::descriptorBytes(d.kind));
+  uint64_t best = 0;
+  double best_distance = options_.merge_max_descriptor_distance;
+  frontend::Descriptor other;
+  other.kind = d.kind;
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dz = -1; dz <= 1; ++dz) {
+        const auto cell = earlier_cells_.find(cellKey(p_m, dx, dy, dz));
+        if (cell == earlier_cells_.end()) continue;
+        for (uint64_t id : cell->second) {
+          const store::StoredLandmark& l = earlier_.at(id);
+          const Eigen::Vector3d e = l.p_m - p_m;
+          if (e.norm() > options_.merge_radius_m || l.descriptor.size() != bytes) continue;
+          const double s2 = options_.merge_map_sigma_m * options_.merge_map_sigma_m;
+          const Eigen::Matrix3d S = l.cov_m + cov_m + 2.0 * s2 * Eigen::Matrix3d::Identity();
+          if (!(e.dot(S.ldlt().solve(e)) <= options_.merge_gate_chi2)) continue;
+          std::copy(l.descriptor.begin(), l.descriptor.end(), other.bytes.begin());
+          const double dist = frontend::descriptorDistance(d, other);
+          if (dist <= best_distance) {
+            best_distance = dist;
+            best = id;
+          }
+        }
+      }
+    }
+  }
+  return best;
+}
+
+Status MapRecorder::adoptRestored(const std::vector<uint64_t>& tracker_ids,
+                                  const std::vector<uint64_t>& map_ids) {
+  if (!extending_) return Status::error("adoptRestored: the recorder is not extending a map");
+  if (tracker_ids.size() != map_ids.size()) {
+    return Status::error("adoptRestored: " + std::to_string(tracker_ids.size()) +
+                         " tracker ids for " + std::to_string(map_ids.size()) + " map landmarks");
+  }
+  for (size_t i = 0; i < map_ids.size(); ++i) {
+    if (earlier_.count(map_ids[i]) == 0) {
+      return Status::error("adoptRestored: landmark " + std::to_string(map_ids[i]) +
+                           " is not in the map");
+    }
+    store_id_[tracker_ids[i]] = map_ids[i];
+    restored_.insert(tracker_ids[i]);
+    seen_as_[map_ids[i]].push_back(tracker_ids[i]);
+  }
   return Status::ok();
 }
 
@@ -93,53 +208,102 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
   kf.session = session_;
   kf.frame = frame.log.index;
   kf.t_ns = t_ns;
-  kf.T_m_b = toIsometry(frame.output.pose);
+  kf.T_m_b = extending_ ? T_m_o_ * toIsometry(frame.output.pose) : toIsometry(frame.output.pose);
   batch_.keyframes.push_back(kf);
+  ++keyframes_written_;
 
   // Each landmark once per batch, with its state after the batch's last frame that saw it.
   std::unordered_map<uint64_t, size_t> queued;
   for (size_t i = 0; i < batch_.upserts.size(); ++i) queued[batch_.upserts[i].id] = i;
   const double sigma_px = db.options().tracker.pixel_sigma_px;
   const double sigma_d_px = db.options().tracker.disparity_sigma_px;
+  // The row of an earlier session's landmark the run re-saw: the stored one with the run's
+  // observations added.
+  // observations added from every tracker landmark that is this one.
+  const auto update = [&](const landmarks::Landmark& l, uint64_t sid) {
+    store::StoredLandmark s = earlier_.at(sid);
+    for (uint64_t tid : seen_as_[sid]) {
+      if (const landmarks::Landmark* seen = db.find(tid)) s.observations += seen->n_obs;
+    }
+    s.confidence = l.confidence;
+    s.last_seen_frame = l.last_seen_frame;
+    s.last_seen_t_ns = t_ns;
+    updated_.insert(sid);
+    return s;
+  };
+  // A new landmark's position covariance in the map frame (zero when its anchor has none).
+  const auto covariance = [&](const landmarks::Landmark& l) {
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    const Eigen::Isometry3d T_w_cl =
+        landmarks::cameraPoseInWorld(l.anchor.odom_pose, db.rig().T_b_cl);
+    if (!stereoPointCovariance(db.rig(),
+                               T_w_cl,
+                               l.anchor.u_px,
+                               l.anchor.v_px,
+                               l.anchor.d_px,
+                               sigma_px,
+                               sigma_d_px,
+                               &cov))
+      return Eigen::Matrix3d::Zero().eval();
+    if (extending_) cov = T_m_o_.linear() * cov * T_m_o_.linear().transpose();
+    return cov;
+  };
   const auto record = [&](uint64_t id) {
     const landmarks::Landmark* l = db.find(id);
     if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) return;
+    uint64_t sid = id;
+    std::optional<Eigen::Matrix3d> cov_m;
+    if (extending_) {
+      const auto known = store_id_.find(id);
+      if (known != store_id_.end()) {
+        sid = known->second;
+      } else if (l->confirmed_frame <= placed_frame_) {
+        return;  // confirmed before the map's landmarks joined: may be one of theirs
+      } else {
+        cov_m = covariance(*l);
+        const auto d = descriptors_.find(id);
+        const uint64_t target =
+            d != descriptors_.end() ? mergeTarget(T_m_o_ * l->p_w, *cov_m, d->second) : 0;
+        if (target != 0) {
+          sid = target;  // an earlier session's landmark the tracker missed
+          restored_.insert(id);
+          seen_as_[sid].push_back(id);
+          ++merged_;
+        } else {
+          sid = next_id_++;
+        }
+        store_id_.emplace(id, sid);
+      }
+    }
     store::StoredLandmark s;
-    s.id = l->id;
-    s.p_m = l->p_w;
-    const Eigen::Isometry3d T_w_cl =
-        landmarks::cameraPoseInWorld(l->anchor.odom_pose, db.rig().T_b_cl);
-    if (!stereoPointCovariance(db.rig(),
-                               T_w_cl,
-                               l->anchor.u_px,
-                               l->anchor.v_px,
-                               l->anchor.d_px,
-                               sigma_px,
-                               sigma_d_px,
-                               &s.cov_m)) {
-      s.cov_m.setZero();
+    if (restored_.count(id) > 0) {
+      s = update(*l, sid);
+    } else {
+      s.id = sid;
+      s.p_m = extending_ ? T_m_o_ * l->p_w : l->p_w;
+      s.cov_m = cov_m ? *cov_m : covariance(*l);
+      s.confidence = l->confidence;
+      s.observations = l->n_obs;
+      s.session = session_;
+      s.first_seen_frame = l->first_frame;
+      s.last_seen_frame = l->last_seen_frame;
+      s.first_seen_t_ns = l->first_t_ns;
+      s.last_seen_t_ns = t_ns;
+      if (const auto d = descriptors_.find(id); d != descriptors_.end()) {
+        s.descriptor_kind = storedDescriptorKind(d->second.kind);
+        const auto n = static_cast<size_t>(frontend::descriptorBytes(d->second.kind));
+        s.descriptor.assign(d->second.bytes.begin(), d->second.bytes.begin() + n);
+      }
+      in_store_.insert(id);
     }
-    s.confidence = l->confidence;
-    s.observations = l->n_obs;
-    s.session = session_;
-    s.first_seen_frame = l->first_frame;
-    s.last_seen_frame = l->last_seen_frame;
-    s.first_seen_t_ns = l->first_t_ns;
-    s.last_seen_t_ns = t_ns;
-    if (const auto d = descriptors_.find(id); d != descriptors_.end()) {
-      s.descriptor_kind = storedDescriptorKind(d->second.kind);
-      const auto n = static_cast<size_t>(frontend::descriptorBytes(d->second.kind));
-      s.descriptor.assign(d->second.bytes.begin(), d->second.bytes.begin() + n);
-    }
-    const auto it = queued.find(id);
+    const auto it = queued.find(sid);
     if (it != queued.end()) {
       s.first_seen_t_ns = batch_.upserts[it->second].first_seen_t_ns;
       batch_.upserts[it->second] = s;
     } else {
-      queued[id] = batch_.upserts.size();
+      queued[sid] = batch_.upserts.size();
       batch_.upserts.push_back(s);
     }
-    in_store_.insert(id);
   };
   // Descriptors of the landmarks confirmed in this frame, at their projection in its left image.
   if (!report.confirmed_ids.empty()) {
@@ -171,7 +335,12 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
   for (uint64_t id : report.associated_ids) record(id);
   for (uint64_t id : report.removed_ids) {
     descriptors_.erase(id);
-    if (in_store_.erase(id) > 0) batch_.removed.push_back(id);
+    // Only the session's own landmarks leave the map; a restored one stays (the run's tracker
+    // dropping it says nothing against the earlier session's evidence).
+    if (in_store_.erase(id) > 0) {
+      const auto known = store_id_.find(id);
+      batch_.removed.push_back(known != store_id_.end() ? known->second : id);
+    }
   }
   if (++frames_in_batch_ >= options_.frames_per_commit) return flush();
   return Status::ok();

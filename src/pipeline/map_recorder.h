@@ -6,15 +6,21 @@
 /// a keyframe, one transaction per
 /// `frames_per_commit` frames, so a killed run leaves the map as of its last commit.
 ///
-/// The map frame is the run's world frame (the estimated one with localisation, the odometry
-/// frame without). A map that already holds landmarks is refused: merging a run into it is not
-/// built yet (issue 25); pipeline/map_relocalizer.h localises a run in it.
+/// A new map (open): its frame is the run's world frame (the estimated one with localisation,
+/// the odometry frame without), and its landmark ids are the tracker's. A map that already holds
+/// landmarks is extended (extend) once the run has been placed in it (pipeline/map_relocalizer.h,
+/// pipeline/map_session.h): the run is a new session, its poses and new landmarks are written in
+/// the map frame (T_m_o, the relocalisation's), new landmarks take ids from the store's
+/// next_landmark_id on, and the map's landmarks the run re-sees (restored into its tracker,
+/// adoptRestored) are updated under their stored ids.
 
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <vector>
 
 #include "common/rig.h"
 #include "common/status.h"
@@ -33,6 +39,21 @@ struct MapRecorderOptions {
   /// frame that confirmed it at its projection there (frontend/descriptors.h). ORB by default:
   /// docs/relocalization.md.
   frontend::DescriptorOptions descriptors;
+  /// Extending a map: a landmark the run confirms close to an earlier session's landmark whose
+  /// descriptor is within `merge_max_descriptor_distance` of its own (the nearest such by
+  /// descriptor) is that landmark seen again, not a new one: the earlier row is updated. Close:
+  /// within `merge_radius_m` and within the `merge_gate_chi2` gate of their position covariances
+  /// plus `merge_map_sigma_m` on each axis. The map is only as consistent as the run that built
+  /// it (1-4 cm off in places on office), so a restored landmark the tracker's gates
+  /// missed is caught here. The largest distance of a merge [m]; 0 switches the merge off.
+  double merge_radius_m = 0.3;
+  /// The map's inconsistency with the run, added to both covariances (sigma per axis) [m].
+  double merge_map_sigma_m = 0.02;
+  /// Gate on the squared Mahalanobis distance of the two positions: 11.34 is chi-squared's 99 %
+  /// for 3 degrees of freedom [-].
+  double merge_gate_chi2 = 11.34;
+  /// Descriptor distance of a merge (frontend::descriptorDistance: ORB bits / 256) [-].
+  double merge_max_descriptor_distance = 0.2;
   [[nodiscard]] Status validate() const;
 };
 
@@ -54,13 +75,36 @@ bool stereoPointCovariance(const StereoRig& rig,
 class MapRecorder {
  public:
   /// Opens or creates the map at `path` and starts a session. Errors (nothing written): the
-  /// store refuses the file (store::LandmarkStore::open), or it already holds landmarks.
+  /// store refuses the file (store::LandmarkStore::open), or it already holds landmarks (extend
+  /// continues such a map).
   static Status open(const std::string& path,
                      const std::string& rig_text,
                      const std::string& config_text,
                      const std::string& log_path,
                      const MapRecorderOptions& options,
                      std::unique_ptr<MapRecorder>* out);
+
+  /// Continues the map at `path` (which holds landmarks) with a new session of a run placed in it
+  /// at log frame `placed_frame`, `T_m_o` being the run's world frame in the map's. Landmarks the
+  /// run confirmed up to that frame are never recorded (they were confirmed before the map's
+  /// landmarks joined the tracker, and may be points the map has); frames are recorded from the
+  /// placed one on. Errors (nothing written): the store refuses the file.
+  static Status extend(const std::string& path,
+                       const std::string& rig_text,
+                       const std::string& config_text,
+                       const std::string& log_path,
+                       const Eigen::Isometry3d& T_m_o,
+                       int32_t placed_frame,
+                       const MapRecorderOptions& options,
+                       std::unique_ptr<MapRecorder>* out);
+
+  /// Extending: the map's landmarks `map_ids` joined the run's tracker as `tracker_ids` (in
+  /// parallel; Pipeline::restoreLandmarks). When the run sees one again its stored row is updated
+  /// (observations added to the stored count, confidence, last seen), its position, descriptor
+  /// and session kept; a later session never removes an earlier session's landmark. Error when
+  /// the sizes differ or an id is not in the map.
+  Status adoptRestored(const std::vector<uint64_t>& tracker_ids,
+                       const std::vector<uint64_t>& map_ids);
 
   /// After each processed frame (RunCallbacks::on_frame): its pose as a keyframe; the landmarks
   /// confirmed or seen in it, and the confirmed landmarks removed, are queued and written every
@@ -70,20 +114,63 @@ class MapRecorder {
   Status finish();
 
   [[nodiscard]] int32_t session() const { return session_; }
+  /// The session's own landmarks in the map (inserted, less those it removed again).
   [[nodiscard]] int64_t landmarksWritten() const { return static_cast<int64_t>(in_store_.size()); }
+  /// Extending: earlier sessions' landmarks this session saw again (updated rows).
+  [[nodiscard]] int64_t landmarksUpdated() const { return static_cast<int64_t>(updated_.size()); }
+  /// Extending: landmarks the run confirmed that were merged into an earlier session's
+  /// (MapRecorderOptions::merge_radius_m).
+  [[nodiscard]] int64_t landmarksMerged() const { return merged_; }
+  /// Poses written (one per recorded frame).
+  [[nodiscard]] int64_t keyframesWritten() const { return keyframes_written_; }
+  [[nodiscard]] bool extending() const { return extending_; }
+  /// Extending: the first id this session gave a new landmark (the store's next id when it began).
+  [[nodiscard]] uint64_t firstNewId() const { return first_new_id_; }
 
  private:
   MapRecorder() = default;
   Status flush();
+  static Status openStore(const std::string& path,
+                          const MapRecorderOptions& options,
+                          std::unique_ptr<store::LandmarkStore>* st,
+                          store::StoreInfo* info);
 
   MapRecorderOptions options_;
   std::unique_ptr<store::LandmarkStore> store_;
   int32_t session_ = 0;
   store::StoreBatch batch_;
   int frames_in_batch_ = 0;
+  /// Tracker ids of the session's own landmarks in the store.
   std::unordered_set<uint64_t> in_store_;
-  /// Every recorded landmark's descriptor (an upsert replaces the whole row).
+  /// Every recorded landmark's descriptor by tracker id (an upsert replaces the whole row).
   std::unordered_map<uint64_t, frontend::Descriptor> descriptors_;
+  int64_t keyframes_written_ = 0;
+
+  // Extending (extend()): the map frame, the placed frame, and the ids.
+  bool extending_ = false;
+  Eigen::Isometry3d T_m_o_ = Eigen::Isometry3d::Identity();
+  int32_t placed_frame_ = -1;
+  uint64_t first_new_id_ = 0;
+  uint64_t next_id_ = 0;
+  /// Tracker id -> store id: the session's new landmarks and the restored map landmarks.
+  std::unordered_map<uint64_t, uint64_t> store_id_;
+  /// Tracker ids of restored map landmarks.
+  std::unordered_set<uint64_t> restored_;
+  /// The map's rows as the session found them, by store id (the base of an update).
+  std::unordered_map<uint64_t, store::StoredLandmark> earlier_;
+  /// Store ids of earlier landmarks the session updated.
+  std::unordered_set<uint64_t> updated_;
+  /// Store id -> the tracker ids that saw it (restored, and merged confirmations).
+  std::unordered_map<uint64_t, std::vector<uint64_t>> seen_as_;
+  /// Earlier landmarks by merge_radius_m cell of p_m.
+  std::unordered_map<uint64_t, std::vector<uint64_t>> earlier_cells_;
+  int64_t merged_ = 0;
+  /// The earlier landmark a new confirmation at p_m (covariance cov_m) with this descriptor is,
+  /// or 0.
+  uint64_t mergeTarget(const Eigen::Vector3d& p_m,
+                       const Eigen::Matrix3d& cov_m,
+                       const frontend::Descriptor& d) const;
+  [[nodiscard]] uint64_t cellKey(const Eigen::Vector3d& p_m, int dx, int dy, int dz) const;
 };
 
 }  // namespace twocam::pipeline

@@ -39,6 +39,7 @@ Status MapRelocalizer::open(const std::string& path,
   const uint8_t kind = storedDescriptorKind(options.descriptors.kind);
   const auto bytes = static_cast<size_t>(frontend::descriptorBytes(options.descriptors.kind));
   for (const store::StoredLandmark& l : stored) {
+    if (options.restore_without_descriptor) r->restore_.emplace_back(l.id, l.p_m);
     if (l.descriptor_kind != kind || l.descriptor.size() != bytes) continue;
     localization::MapLandmark m;
     m.id = l.id;
@@ -53,17 +54,26 @@ Status MapRelocalizer::open(const std::string& path,
         frontend::descriptorKindName(options.descriptors.kind) + " descriptor to relocalise with");
   }
   r->report_.map_landmarks = static_cast<int64_t>(r->map_.size());
+  if (!options.restore_without_descriptor) {
+    r->restore_.reserve(r->map_.size());
+    for (const localization::MapLandmark& m : r->map_) r->restore_.emplace_back(m.id, m.p_m);
+  }
   *out = std::move(r);
   return Status::ok();
 }
 
-std::vector<Eigen::Vector3d> MapRelocalizer::takeLandmarksToRestore() {
+std::vector<Eigen::Vector3d> MapRelocalizer::takeLandmarksToRestore(
+    std::vector<uint64_t>* map_ids) {
   std::vector<Eigen::Vector3d> p_o;
+  if (map_ids != nullptr) map_ids->clear();
   if (!placed_ || restored_) return p_o;
   restored_ = true;
   const Eigen::Isometry3d T_o_m = T_m_o_.inverse();
-  p_o.reserve(map_.size());
-  for (const localization::MapLandmark& l : map_) p_o.push_back(T_o_m * l.p_m);
+  p_o.reserve(restore_.size());
+  for (const auto& [id, p_m] : restore_) {
+    p_o.push_back(T_o_m * p_m);
+    if (map_ids != nullptr) map_ids->push_back(id);
+  }
   report_.restored = static_cast<int64_t>(p_o.size());
   return p_o;
 }

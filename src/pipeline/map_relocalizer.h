@@ -7,12 +7,13 @@
 /// run is also given in the map frame (T_m_b = T_m_o T_o_b). The map is read only.
 ///
 /// After placement the map's landmarks join the run's tracker (takeLandmarksToRestore), so that
-/// the run localises on them and the map corrects its drift. Not yet: merging the run into the
-/// map.
+/// the run localises on them and the map corrects its drift. Recording the run into the map once
+/// placed is pipeline/map_session.h's (MapRecorder::extend).
 
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/rig.h"
@@ -34,6 +35,11 @@ struct MapRelocalizerOptions {
   /// placements all came within 2 frames (docs/experiments/2026-12-03-relocalization-in-run.md).
   int every_frame_attempts = 10;
   int later_attempt_stride = 10;
+  /// Hand the tracker every landmark of the map after placement, also those recorded without a
+  /// descriptor of the kind (near the image border when confirmed: 9 % of an office map).
+  /// Extending a map needs them all, or the run maps those points again; false (--localize-only)
+  /// restores only the landmarks relocalisation matches against.
+  bool restore_without_descriptor = false;
   [[nodiscard]] Status validate() const;
 };
 
@@ -75,8 +81,12 @@ class MapRelocalizer {
   [[nodiscard]] const RelocalizationReport& report() const { return report_; }
   /// Once, after the frame that was placed (RunCallbacks::between_frames): the map's landmarks
   /// in the run's world frame (p_o = T_m_o^-1 p_m), handed to the tracker so that the run
-  /// localises on the map from there (Pipeline::restoreLandmarks). Empty otherwise.
-  std::vector<Eigen::Vector3d> takeLandmarksToRestore();
+  /// localises on the map from there (Pipeline::restoreLandmarks). Empty otherwise. With
+  /// `map_ids`, their stored ids, in parallel.
+  std::vector<Eigen::Vector3d> takeLandmarksToRestore(std::vector<uint64_t>* map_ids = nullptr);
+  /// The run's world frame in the map's, once placed (identity before).
+  [[nodiscard]] const Eigen::Isometry3d& T_m_o() const { return T_m_o_; }
+  [[nodiscard]] bool placed() const { return placed_; }
 
  private:
   MapRelocalizer() = default;
@@ -84,6 +94,8 @@ class MapRelocalizer {
   StereoRig rig_;
   MapRelocalizerOptions options_;
   std::vector<localization::MapLandmark> map_;
+  /// What takeLandmarksToRestore hands over: stored id and p_m.
+  std::vector<std::pair<uint64_t, Eigen::Vector3d>> restore_;
   bool placed_ = false;
   bool restored_ = false;
   int frames_seen_ = 0;  // processed frames before placement

@@ -1,5 +1,10 @@
 #include "pipeline/map_session.h"
 
+#include <filesystem>
+#include <vector>
+
+#include "store/landmark_store.h"
+
 namespace twocam::pipeline {
 
 Status MapSessionOptions::validate() const {
@@ -17,15 +22,43 @@ Status MapSession::open(const std::string& path,
   std::unique_ptr<MapSession> session(new MapSession());
   session->path_ = path;
   session->options_ = options;
-  Status s = options.localize_only
-                 ? MapRelocalizer::open(path, rig, options.relocalizer, &session->relocalizer_)
-                 : MapRecorder::open(path,
-                                     rigText(rig),
-                                     toYaml(config),
-                                     log_path,
-                                     options.recorder,
-                                     &session->recorder_);
-  if (!s) return Status::error("--map " + path + ": " + s.message());
+  const auto fail = [&](const Status& s) {
+    return Status::error("--map " + path + ": " + s.message());
+  };
+  if (options.localize_only) {
+    if (Status s = MapRelocalizer::open(path, rig, options.relocalizer, &session->relocalizer_); !s)
+      return fail(s);
+    *out = std::move(session);
+    return Status::ok();
+  }
+  // An existing map is looked at read only: one that holds landmarks is extended, and is not
+  // written before the run is placed in it.
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) {
+    std::unique_ptr<store::LandmarkStore> st;
+    store::StoreInfo info;
+    if (Status s = store::LandmarkStore::open(path, store::OpenMode::kReadOnly, &st); !s)
+      return fail(s);
+    if (Status s = st->info(&info); !s) return fail(s);
+    session->extending_ = info.landmark_count > 0;
+  }
+  if (session->extending_) {
+    MapRelocalizerOptions ropt = options.relocalizer;
+    ropt.restore_without_descriptor = true;
+    if (Status s = MapRelocalizer::open(path, rig, ropt, &session->relocalizer_); !s)
+      return fail(s);
+    session->rig_text_ = rigText(rig);
+    session->config_text_ = toYaml(config);
+    session->log_path_ = log_path;
+  } else if (Status s = MapRecorder::open(path,
+                                          rigText(rig),
+                                          toYaml(config),
+                                          log_path,
+                                          options.recorder,
+                                          &session->recorder_);
+             !s) {
+    return fail(s);
+  }
   *out = std::move(session);
   return Status::ok();
 }
@@ -34,16 +67,36 @@ Status MapSession::addFrame(const RunFrame& frame) {
   if (recorder_) {
     if (Status s = recorder_->addFrame(frame); !s) return Status::error("--map: " + s.message());
   }
-  if (relocalizer_) {
-    if (Status s = relocalizer_->addFrame(frame); !s)
-      return Status::error("relocalisation: " + s.message());
-  }
+  if (!relocalizer_) return Status::ok();
+  const bool was_placed = relocalizer_->placed();
+  if (Status s = relocalizer_->addFrame(frame); !s)
+    return Status::error("relocalisation: " + s.message());
+  if (!extending_ || was_placed || !relocalizer_->placed()) return Status::ok();
+  // Placed in this frame: the map is written from here on.
+  if (Status s = MapRecorder::extend(path_,
+                                     rig_text_,
+                                     config_text_,
+                                     log_path_,
+                                     relocalizer_->T_m_o(),
+                                     frame.log.index,
+                                     options_.recorder,
+                                     &recorder_);
+      !s)
+    return Status::error("--map " + path_ + ": " + s.message());
+  if (Status s = recorder_->addFrame(frame); !s) return Status::error("--map: " + s.message());
   return Status::ok();
 }
 
 Status MapSession::betweenFrames(Pipeline* pipeline) {
-  if (relocalizer_ && options_.restore_landmarks)
-    pipeline->restoreLandmarks(relocalizer_->takeLandmarksToRestore());
+  if (!relocalizer_ || !options_.restore_landmarks) return Status::ok();
+  std::vector<uint64_t> map_ids;
+  const std::vector<Eigen::Vector3d> p_o = relocalizer_->takeLandmarksToRestore(&map_ids);
+  if (p_o.empty()) return Status::ok();
+  const std::vector<uint64_t> tracker_ids = pipeline->restoreLandmarks(p_o);
+  if (recorder_ && extending_) {
+    if (Status s = recorder_->adoptRestored(tracker_ids, map_ids); !s)
+      return Status::error("--map " + path_ + ": " + s.message());
+  }
   return Status::ok();
 }
 
@@ -59,7 +112,17 @@ const RelocalizationReport* MapSession::relocalization() const {
 }
 
 std::string MapSession::summaryLine(int processed_frames) const {
+  if (extending_ && !recorder_)
+    return "map: not merged: the run was never placed in " + path_ + " (the map is unchanged)";
   if (!recorder_) return "";
+  if (recorder_->extending()) {
+    return "map: session " + std::to_string(recorder_->session()) + " added " +
+           std::to_string(recorder_->landmarksWritten()) + " landmarks (ids from " +
+           std::to_string(recorder_->firstNewId()) + "), saw " +
+           std::to_string(recorder_->landmarksUpdated()) + " of the map's again (" +
+           std::to_string(recorder_->landmarksMerged()) + " confirmations merged into them), " +
+           std::to_string(recorder_->keyframesWritten()) + " poses in " + path_;
+  }
   return "map: " + std::to_string(recorder_->landmarksWritten()) + " landmarks and " +
          std::to_string(processed_frames) + " poses in " + path_ + " (session " +
          std::to_string(recorder_->session()) + ")";

@@ -1,7 +1,12 @@
 #pragma once
-/// The run's landmark map (`twocam run --map MAP.db`): recorded into (MapRecorder), or, with
-/// `--localize-only`, only read to relocalise in (MapRelocalizer), whose placed frame hands the
-/// map's landmarks to the run's tracker. One object for the run loop's callbacks.
+/// The run's landmark map (`twocam run --map MAP.db`), one object for the run loop's callbacks:
+/// - a new or empty map is recorded into from the first frame (MapRecorder::open);
+/// - a map that holds landmarks is extended: the run is relocalised in it first (MapRelocalizer,
+///   read only), and once placed the map's landmarks join the run's tracker and the run is
+///   recorded as a new session in the map frame (MapRecorder::extend, adoptRestored); a run that
+///   is never placed writes nothing (merged() false, the file as it was);
+/// - with `--localize-only` the map is only read: relocalised in, its landmarks handed to the
+///   tracker, never written.
 
 #include <cstdint>
 #include <memory>
@@ -30,7 +35,8 @@ struct MapSessionOptions {
 class MapSession {
  public:
   /// Opens the map at `path` before any frame is processed; refusals leave the file as it was
-  /// (MapRecorder::open, MapRelocalizer::open). Errors start with "--map PATH: ".
+  /// (MapRecorder::open, MapRelocalizer::open). An existing map is opened read only until the
+  /// run is placed in it. Errors start with "--map PATH: ".
   static Status open(const std::string& path,
                      const StereoRig& rig,
                      const PipelineConfig& config,
@@ -46,9 +52,14 @@ class MapSession {
   [[nodiscard]] Status finish();
 
   [[nodiscard]] const std::string& path() const { return path_; }
-  /// The relocalisation's report with --localize-only, nullptr otherwise.
+  /// The relocalisation's report (--localize-only, or extending a map), nullptr otherwise.
   [[nodiscard]] const RelocalizationReport* relocalization() const;
-  /// One line for the run's summary: what the map now holds (recording), empty otherwise.
+  /// Extending a map that holds landmarks (not --localize-only).
+  [[nodiscard]] bool extending() const { return extending_; }
+  /// False when extending and the run was never placed: nothing of it went into the map.
+  [[nodiscard]] bool merged() const { return !extending_ || recorder_ != nullptr; }
+  /// One line for the run's summary: what the run wrote into the map (recording or extending),
+  /// empty with --localize-only.
   [[nodiscard]] std::string summaryLine(int processed_frames) const;
 
  private:
@@ -56,6 +67,9 @@ class MapSession {
 
   std::string path_;
   MapSessionOptions options_;
+  bool extending_ = false;
+  // Extending: the session's record, written once the run is placed.
+  std::string rig_text_, config_text_, log_path_;
   std::unique_ptr<MapRecorder> recorder_;
   std::unique_ptr<MapRelocalizer> relocalizer_;
 };

@@ -49,6 +49,12 @@ TEST(MapRecorder, OptionsNameTheirKey) {
   EXPECT_TRUE(o.validate().isOk());
   o.frames_per_commit = 0;
   EXPECT_NE(o.validate().message().find("frames_per_commit"), std::string::npos);
+  o = MapRecorderOptions();
+  o.merge_radius_m = -0.01;
+  EXPECT_NE(o.validate().message().find("merge_radius_m"), std::string::npos);
+  o = MapRecorderOptions();
+  o.merge_max_descriptor_distance = 3.0;
+  EXPECT_NE(o.validate().message().find("merge_max_descriptor_distance"), std::string::npos);
 }
 
 }  // namespace

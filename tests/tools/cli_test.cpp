@@ -19,6 +19,7 @@
 
 #include "io/json.h"
 #include "io/rawlog.h"
+#include "store/landmark_store.h"
 #include "support/command.h"
 #include "support/test_paths.h"
 
@@ -546,16 +547,7 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
       << info.output;
   EXPECT_NE(info.output.find("keyframes: 30"), std::string::npos) << info.output;
   EXPECT_NE(info.output.find("s.rawlog"), std::string::npos) << info.output;
-  // A map that holds landmarks is not continued without relocalisation: an error naming it,
-  // exit 1, the map and the earlier output untouched, no new output folder.
   const std::string before = readFile(map);
-  const RunResult again =
-      run("run " + dir + "/s.rawlog -o " + dir + "/out2 -q --no-pictures --map " + map);
-  EXPECT_EQ(again.exit_code, 1);
-  EXPECT_NE(again.error.find("--map " + map), std::string::npos) << again.error;
-  EXPECT_NE(again.error.find("--localize-only"), std::string::npos) << again.error;
-  EXPECT_EQ(readFile(map), before);
-  EXPECT_FALSE(fs::exists(dir + "/out2"));
   // Localising in the map (read only): the same log is placed at once, within the map's own
   // error, and its poses are given in the map frame.
   const RunResult loc = run("run " + dir + "/s.rawlog -o " + dir + "/loc -q --no-pictures --map " +
@@ -583,6 +575,109 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
   EXPECT_NE(bad.error.find("notes.txt"), std::string::npos) << bad.error;
   EXPECT_EQ(readFile(dir + "/notes.txt"), "not a map\n");
   EXPECT_FALSE(fs::exists(dir + "/out3"));
+}
+
+/// Every landmark of a map by id.
+std::map<uint64_t, store::StoredLandmark> loadMap(const std::string& path) {
+  std::unique_ptr<store::LandmarkStore> st;
+  std::vector<store::StoredLandmark> all;
+  std::map<uint64_t, store::StoredLandmark> by_id;
+  if (!store::LandmarkStore::open(path, store::OpenMode::kReadOnly, &st) || !st->loadAll(&all))
+    return by_id;
+  for (store::StoredLandmark& l : all) by_id[l.id] = std::move(l);
+  return by_id;
+}
+
+TEST(TwocamCli, RunExtendsAMapWithASecondSessionOnlyOncePlacedInIt) {
+  const std::string dir = test::makeTempDir("cli_run_map_extend");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 30 -q").exit_code,
+            0);
+  const std::string map = dir + "/m.db";
+  ASSERT_EQ(
+      run("run " + dir + "/s.rawlog -o " + dir + "/out -q --no-pictures --map " + map).exit_code,
+      0);
+  const std::map<uint64_t, store::StoredLandmark> first = loadMap(map);
+  ASSERT_FALSE(first.empty());
+  std::unique_ptr<store::LandmarkStore> st;
+  store::StoreInfo info1;
+  ASSERT_TRUE(store::LandmarkStore::open(map, store::OpenMode::kReadOnly, &st));
+  ASSERT_TRUE(st->info(&info1));
+  st.reset();
+
+  // A log of another world is never placed in the map: exit 2 saying so, the map byte for byte
+  // as it was (no session, nothing in a write-ahead log: a read-only open may leave an empty
+  // one), the run's own outputs written.
+  ASSERT_EQ(run("simulate " + test::sourceDir() + "/worlds/lowtexture.yaml -o " + dir +
+                "/other.rawlog --frames 12 -q")
+                .exit_code,
+            0);
+  const std::string before = readFile(map);
+  const RunResult other =
+      run("run " + dir + "/other.rawlog -o " + dir + "/other -q --no-pictures --map " + map);
+  EXPECT_EQ(other.exit_code, 2) << other.output;
+  EXPECT_NE(other.error.find("never placed in the map " + map), std::string::npos) << other.error;
+  EXPECT_NE(other.error.find("not merged"), std::string::npos) << other.error;
+  EXPECT_EQ(readFile(map), before);
+  EXPECT_TRUE(!fs::exists(map + "-wal") || fs::file_size(map + "-wal") == 0);
+  const io::Json never = io::Json::parse(readFile(dir + "/other/metrics.json"))["relocalization"];
+  EXPECT_EQ(never["frame"].get<int>(), -1) << never.dump();
+
+  // The same world again (another noise seed): placed, then recorded as session 2.
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir +
+                "/s2.rawlog --frames 30 "
+                "--noise-seed 11 -q")
+                .exit_code,
+            0);
+  const RunResult second =
+      run("run " + dir + "/s2.rawlog -o " + dir + "/out2 -q --no-pictures --map " + map);
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  const io::Json reloc = io::Json::parse(readFile(dir + "/out2/metrics.json"))["relocalization"];
+  ASSERT_GE(reloc["frame"].get<int>(), 0) << reloc.dump();
+  const int placed = reloc["frame"].get<int>();
+  EXPECT_NE(second.output.find("map: session 2 added"), std::string::npos) << second.output;
+  const RunResult info = run("map info " + map);
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("sessions: 2"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("s2.rawlog, " + std::to_string(30 - placed) + " keyframes"),
+            std::string::npos)
+      << info.output;
+
+  const std::map<uint64_t, store::StoredLandmark> both = loadMap(map);
+  int seen_again = 0;
+  for (const auto& [id, l1] : first) {
+    // Session 1's landmarks are all still there, under their ids, where they were.
+    const auto it = both.find(id);
+    ASSERT_NE(it, both.end()) << id;
+    const store::StoredLandmark& l = it->second;
+    EXPECT_EQ(l.session, 1);
+    EXPECT_EQ(l.p_m, l1.p_m) << id;
+    EXPECT_GE(l.observations, l1.observations) << id;
+    if (l.observations > l1.observations) {
+      ++seen_again;
+      EXPECT_GT(l.last_seen_t_ns, 0);
+    }
+  }
+  // Session 2 saw the map's landmarks again and updated them instead of inserting them again.
+  EXPECT_GT(seen_again, static_cast<int>(first.size()) / 4) << seen_again << " of " << first.size();
+  int inserted = 0;
+  for (const auto& [id, l] : both) {
+    if (first.count(id) > 0) continue;
+    ++inserted;
+    EXPECT_EQ(l.session, 2) << id;
+    EXPECT_GE(id, info1.next_landmark_id) << id;  // the numbering continues
+  }
+  EXPECT_LT(inserted, static_cast<int>(first.size()) / 2) << inserted << " new of " << first.size();
+  // Session 2's poses are in the map frame: its first keyframe near the first session's pose of
+  // the same frame (the same path).
+  ASSERT_TRUE(store::LandmarkStore::open(map, store::OpenMode::kReadOnly, &st));
+  std::vector<store::StoredKeyframe> k1, k2;
+  ASSERT_TRUE(st->keyframes(1, &k1));
+  ASSERT_TRUE(st->keyframes(2, &k2));
+  ASSERT_EQ(k2.size(), static_cast<size_t>(30 - placed));
+  EXPECT_EQ(k2.front().frame, placed);
+  constexpr double kMaxMapFrameOffsetM = 0.05;
+  EXPECT_LT((k2.front().T_m_b.translation() - k1[placed].T_m_b.translation()).norm(),
+            kMaxMapFrameOffsetM);
 }
 
 TEST(TwocamCli, RunReplacesAnEarlierRunAllOrNothingAndNeverAnInput) {
