@@ -36,6 +36,9 @@ int runRun(const RunArgs& args) {
   if (Status s = io::RawlogReader::open(args.log_path, &reader); !s) return fail(s.message());
   if (Status s = pipeline::clampToRig(reader->rig(), &config); !s) return fail(s.message());
   if (args.localize_only && !args.map_path) return fail("--localize-only needs --map MAP.db");
+  if ((args.working_set_radius_m || args.working_set_max) && (!args.map_path || args.localize_only))
+    return fail(
+        "--working-set-radius and --working-set-max need --map MAP.db (not --localize-only)");
 
   eval::RunEvaluator::Inputs inputs;
   inputs.log_path = args.log_path;
@@ -62,6 +65,8 @@ int runRun(const RunArgs& args) {
     pipeline::MapSessionOptions mopt;
     mopt.localize_only = args.localize_only;
     mopt.restore_landmarks = std::getenv("TWOCAM_NO_RESTORE") == nullptr;
+    mopt.working_set.radius_m = args.working_set_radius_m.value_or(0.0);
+    mopt.working_set.max_landmarks = args.working_set_max.value_or(0);
     if (Status s = pipeline::MapSession::open(
             *args.map_path, reader->rig(), config, args.log_path, mopt, &map);
         !s)
@@ -73,16 +78,20 @@ int runRun(const RunArgs& args) {
   pipeline::Run run(reader->rig(), config);
   eval::RunEvaluator evaluator(reader->rig(), config, inputs);
   ProgressBar progress("run", total, !args.quiet && total > 0);
-  pipeline::RunCallbacks callbacks{
-      warn,
-      [&](const pipeline::RunFrame& f) {
-        if (map) {
-          if (Status s = map->addFrame(f); !s) return s;
-        }
-        return evaluator.addFrame(f);
-      },
-      [&](int frames) { progress.update(frames); },
-      [&](pipeline::Pipeline* pipe) { return map ? map->betweenFrames(pipe) : Status::ok(); }};
+  pipeline::RunCallbacks callbacks{warn,
+                                   [&](const pipeline::RunFrame& f) {
+                                     if (map) {
+                                       if (Status s = map->addFrame(f); !s) return s;
+                                     }
+                                     return evaluator.addFrame(f);
+                                   },
+                                   [&](int frames) { progress.update(frames); },
+                                   [&](pipeline::Pipeline* pipe) {
+                                     if (!map) return Status::ok();
+                                     const Status s = map->betweenFrames(pipe);
+                                     evaluator.addPagedOut(map->takePagedOut());
+                                     return s;
+                                   }};
   if (Status s =
           run.execute(pipeline::frameSource(*reader), args.log_path, args.max_frames, callbacks);
       !s)

@@ -25,6 +25,10 @@ struct RunArgs {
   /// With map_path: relocalise in the map and give the run's poses in its frame; the map is
   /// only read (pipeline/map_relocalizer.h).
   bool localize_only = false;
+  /// With map_path: the tracker's bounded working set (pipeline/working_set.h): radius [m] and
+  /// count cap; absent: everything stays in memory.
+  std::optional<double> working_set_radius_m;
+  std::optional<int> working_set_max;
   /// Frame (counted from 0) drawn in sample_frame/; default: the middle of the log.
   std::optional<int> sample_frame;
   /// Do not call scripts/plot_run.py at the end.

@@ -169,6 +169,18 @@ int main(int argc, char** argv) {
                     run.localize_only,
                     "With --map: relocalise in the map (read only) and write the run's poses in "
                     "its frame (trajectory_map.tum, metrics.json relocalization)");
+  double run_ws_radius = 0.0;
+  int run_ws_max = 0;
+  auto* run_ws_radius_opt = run_cmd->add_option(
+      "--working-set-radius",
+      run_ws_radius,
+      "With --map: confirmed landmarks farther than this from the robot [m] leave the tracker "
+      "for the map and come back from it when the robot nears them (docs/store.md#working-set)");
+  auto* run_ws_max_opt = run_cmd->add_option(
+      "--working-set-max",
+      run_ws_max,
+      "With --map: at most this many of the map's confirmed landmarks in the tracker, the "
+      "nearest (docs/store.md#working-set)");
   run_cmd->add_flag(
       "--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
   run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");
@@ -252,6 +264,8 @@ int main(int argc, char** argv) {
       if (run_localization_opt->count() > 0) run.localization = run_localization;
       if (run_world_opt->count() > 0) run.world_path = run_world;
       if (run_map_opt->count() > 0) run.map_path = run_map;
+      if (run_ws_radius_opt->count() > 0) run.working_set_radius_m = run_ws_radius;
+      if (run_ws_max_opt->count() > 0) run.working_set_max = run_ws_max;
       return twocam::tools::runRun(run);
     }
     if (map_cmd.map->parsed()) return twocam::tools::runMap(map_cmd, map_args);

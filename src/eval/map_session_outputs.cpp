@@ -82,6 +82,29 @@ void addMapSessionOutputs(const pipeline::MapSession& session,
     }
     out->summary += line.str();
   }
+  if (const pipeline::WorkingSetStats* ws = session.workingSet()) {
+    // Counts are deterministic (metrics.json); the checks' wall time goes to timing.json.
+    out->metrics["working_set"] = {{"checks", ws->checks},
+                                   {"paged_out", ws->paged_out},
+                                   {"paged_in", ws->paged_in},
+                                   {"max_confirmed", ws->max_confirmed},
+                                   {"final_radius_m", ws->radius_m}};
+    std::vector<float> ms = ws->check_ms;
+    io::Json t = {{"checks", ms.size()}};
+    if (!ms.empty()) {
+      std::sort(ms.begin(), ms.end());
+      t["check_ms_median"] = ms[ms.size() / 2];
+      t["check_ms_max"] = ms.back();
+      double sum = 0.0;
+      for (float v : ms) sum += v;
+      t["per_frame_ms_mean"] = processed_frames > 0 ? sum / processed_frames : 0.0;
+    }
+    out->timing["working_set"] = t;
+    std::ostringstream line;
+    line << "working set: " << ws->paged_out << " landmarks paged out to the map, " << ws->paged_in
+         << " back in, at most " << ws->max_confirmed << " confirmed in the tracker\n";
+    out->summary += line.str();
+  }
   const std::string map_line = session.summaryLine(processed_frames);
   if (!map_line.empty()) out->summary += map_line + "\n";
 }

@@ -401,7 +401,16 @@ void RunEvaluator::takeSample(const pipeline::RunFrame& f, const GroundTruthFram
   sample_csv_ = csv.str();
 }
 
-std::string RunEvaluator::landmarksCsv(const landmarks::LandmarkDatabase& db, bool has_gt) const {
+void RunEvaluator::addPagedOut(std::vector<landmarks::Landmark> records) {
+  if (paged_out_.empty()) {
+    paged_out_ = std::move(records);
+  } else {
+    std::move(records.begin(), records.end(), std::back_inserter(paged_out_));
+  }
+}
+
+std::string RunEvaluator::landmarksCsv(const std::vector<landmarks::Landmark>& slots,
+                                       bool has_gt) const {
   // The leading columns, then verdict and errors with ground truth.
   std::ostringstream csv;
   csv << std::setprecision(9);
@@ -413,7 +422,7 @@ std::string RunEvaluator::landmarksCsv(const landmarks::LandmarkDatabase& db, bo
     if (std::isfinite(v)) csv << v;
   };
   const double nan = std::nan("");
-  for (const landmarks::Landmark& l : db.landmarks()) {  // every record, in storage order
+  for (const landmarks::Landmark& l : slots) {  // every record, in storage order
     if (l.state == landmarks::LandmarkState::kFree) continue;
     csv << l.id << ',' << l.p_w.x() << ',' << l.p_w.y() << ',' << l.p_w.z() << ','
         << (l.state == landmarks::LandmarkState::kConfirmed ? 1 : 0) << ',' << l.confidence << ','
@@ -441,6 +450,14 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   const pipeline::RunSummary& s = run.summary();
   const pipeline::Pipeline& pipe = run.pipeline();
   const landmarks::LandmarkDatabase& db = pipe.database();
+  // Every landmark the run made: the tracker's, and those its working set paged out.
+  std::vector<landmarks::Landmark> with_paged_out;
+  if (!paged_out_.empty()) {
+    with_paged_out = db.landmarks();
+    with_paged_out.insert(with_paged_out.end(), paged_out_.begin(), paged_out_.end());
+  }
+  const std::vector<landmarks::Landmark>& all_landmarks =
+      paged_out_.empty() ? db.landmarks() : with_paged_out;
   const double resolution_m = config_.mapping.resolution_m;
   const bool has_gt = has_gt_ && s.odometry_mode && !gt_track_.empty();
   const bool has_pose_gt = has_pose_gt_ && s.odometry_mode && !gt_track_.empty();
@@ -563,13 +580,13 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
     if (localizing) m["slips"] = {{"absent", why}};
   }
   if (has_gt) {
-    lm = landmarks_.finish(db);
+    lm = landmarks_.finish(all_landmarks);
     const Json nested = toJson(*lm);
     for (auto it = nested.begin(); it != nested.end(); ++it) m[it.key()] = *it;
   } else {
     m["landmarks"] = {{"confirmed", db.numConfirmed()}, {"candidates", db.numCandidates()}};
     if (has_pose_gt) {
-      const PoseConsistencyMetrics pc = pose_consistency_.finish(db);
+      const PoseConsistencyMetrics pc = pose_consistency_.finish(all_landmarks);
       m["landmarks"]["true_pose_consistency"] = numberOrNull(pc.fraction);
       m["landmarks"]["true_pose_consistent"] = pc.consistent;
       m["landmarks"]["true_pose_judged"] = pc.judged;
@@ -609,7 +626,7 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
 
   // ---- files ---------------------------------------------------------------------------------
   auto& files = out->text_files;
-  files.emplace_back("landmarks.csv", landmarksCsv(db, has_gt));
+  files.emplace_back("landmarks.csv", landmarksCsv(all_landmarks, has_gt));
   files.emplace_back("timings.csv", timingsCsv(s.records));
   files.emplace_back("config_used.yaml",
                      "# Effective configuration of twocam run on " + inputs_.log_path + "\n" +

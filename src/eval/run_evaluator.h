@@ -75,6 +75,12 @@ class RunEvaluator {
   /// pose that is not finite or absurdly far, eval/landmark_metrics.h checkGroundTruthPose).
   [[nodiscard]] Status addFrame(const pipeline::RunFrame& frame);
 
+  /// Landmarks the tracker's working set paged out (pipeline::MapSession::takePagedOut): their
+  /// last records are judged with the landmarks still in the tracker at the end (the landmark
+  /// metrics and landmarks.csv cover every landmark the run made, not only the final working
+  /// set); a landmark paged back in is a restored one there (counted apart).
+  void addPagedOut(std::vector<landmarks::Landmark> records);
+
   /// The run's outputs from the finished run. Errors: the trajectory evaluation fails.
   [[nodiscard]] Status finish(const pipeline::Run& run, RunOutputs* out) const;
   /// The true body poses of the processed frames that had one.
@@ -91,7 +97,8 @@ class RunEvaluator {
     std::vector<Eigen::Isometry3d> T_target_used_by_frame;
   };
   void takeSample(const pipeline::RunFrame& frame, const GroundTruthFrame* gt);
-  [[nodiscard]] std::string landmarksCsv(const landmarks::LandmarkDatabase& db, bool has_gt) const;
+  [[nodiscard]] std::string landmarksCsv(const std::vector<landmarks::Landmark>& slots,
+                                         bool has_gt) const;
 
   StereoRig rig_;
   pipeline::PipelineConfig config_;
@@ -109,6 +116,8 @@ class RunEvaluator {
   bool has_pose_gt_ = true;
   /// Logs with true poses but no true depth (KITTI): landmarks.true_pose_consistency.
   TruePoseConsistency pose_consistency_;
+  /// addPagedOut()'s records.
+  std::vector<landmarks::Landmark> paged_out_;
   bool sample_taken_ = false;
   int sample_index_ = 0;
   ImageU8 sample_left_, sample_right_;

@@ -176,6 +176,13 @@ class LandmarkDatabase final : public AnchorPoses {
   /// Appends their ids to *ids when given. The max_confirmed cap applies at the next frame.
   void restoreConfirmed(const std::vector<Eigen::Vector3d>& p_w, std::vector<uint64_t>* ids);
 
+  /// Between frames: the confirmed landmarks with these ids leave the database without being
+  /// removed: their slots are freed but they are not reported in any FrameReport::removed_ids
+  /// (the bounded working set, pipeline/working_set.h: a landmark store keeps them and hands
+  /// them back with restoreConfirmed). Ids that are not live confirmed landmarks are skipped.
+  /// Returns how many left.
+  int pageOut(const std::vector<uint64_t>& ids);
+
   /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
   [[nodiscard]] const Landmark* find(uint64_t id) const;
 

@@ -302,6 +302,18 @@ void LandmarkDatabase::restoreConfirmed(const std::vector<Eigen::Vector3d>& p_w,
   }
 }
 
+int LandmarkDatabase::pageOut(const std::vector<uint64_t>& ids) {
+  TWOCAM_CHECK(frame_hyps_ == nullptr) << "pageOut inside a frame";
+  int left = 0;
+  for (uint64_t id : ids) {
+    const uint32_t slot = slot_of_id_.find(id);
+    if (slot == IdIndex::kNone || slots_[slot].state != LandmarkState::kConfirmed) continue;
+    releaseSlot(slot, nullptr);
+    ++left;
+  }
+  return left;
+}
+
 void LandmarkDatabase::seed(const StereoHypotheses& hyps, FrameReport* report) {
   const double fb = rig_.fx_px * rig_.baseline_m;
   for (uint32_t pi = 0; pi < hyps.points.size(); ++pi) {

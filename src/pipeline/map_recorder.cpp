@@ -1,5 +1,6 @@
 #include "pipeline/map_recorder.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <sstream>
@@ -217,19 +218,8 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
   for (size_t i = 0; i < batch_.upserts.size(); ++i) queued[batch_.upserts[i].id] = i;
   const double sigma_px = db.options().tracker.pixel_sigma_px;
   const double sigma_d_px = db.options().tracker.disparity_sigma_px;
-  // The row of an earlier session's landmark the run re-saw: the stored one with the run's
-  // observations added.
-  // observations added from every tracker landmark that is this one.
   const auto update = [&](const landmarks::Landmark& l, uint64_t sid) {
-    store::StoredLandmark s = earlier_.at(sid);
-    for (uint64_t tid : seen_as_[sid]) {
-      if (const landmarks::Landmark* seen = db.find(tid)) s.observations += seen->n_obs;
-    }
-    s.confidence = l.confidence;
-    s.last_seen_frame = l.last_seen_frame;
-    s.last_seen_t_ns = t_ns;
-    updated_.insert(sid);
-    return s;
+    return updatedRow(db, l, sid, t_ns);
   };
   // A new landmark's position covariance in the map frame (zero when its anchor has none).
   const auto covariance = [&](const landmarks::Landmark& l) {
@@ -253,27 +243,24 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
     if (l == nullptr || l->state != landmarks::LandmarkState::kConfirmed) return;
     uint64_t sid = id;
     std::optional<Eigen::Matrix3d> cov_m;
-    if (extending_) {
-      const auto known = store_id_.find(id);
-      if (known != store_id_.end()) {
-        sid = known->second;
-      } else if (l->confirmed_frame <= placed_frame_) {
+    if (const auto known = store_id_.find(id); known != store_id_.end()) {
+      sid = known->second;
+    } else if (extending_) {
+      if (l->confirmed_frame <= placed_frame_)
         return;  // confirmed before the map's landmarks joined: may be one of theirs
+      cov_m = covariance(*l);
+      const auto d = descriptors_.find(id);
+      const uint64_t target =
+          d != descriptors_.end() ? mergeTarget(T_m_o_ * l->p_w, *cov_m, d->second) : 0;
+      if (target != 0) {
+        sid = target;  // an earlier session's landmark the tracker missed
+        restored_.insert(id);
+        seen_as_[sid].push_back(id);
+        ++merged_;
       } else {
-        cov_m = covariance(*l);
-        const auto d = descriptors_.find(id);
-        const uint64_t target =
-            d != descriptors_.end() ? mergeTarget(T_m_o_ * l->p_w, *cov_m, d->second) : 0;
-        if (target != 0) {
-          sid = target;  // an earlier session's landmark the tracker missed
-          restored_.insert(id);
-          seen_as_[sid].push_back(id);
-          ++merged_;
-        } else {
-          sid = next_id_++;
-        }
-        store_id_.emplace(id, sid);
+        sid = next_id_++;
       }
+      store_id_.emplace(id, sid);
     }
     store::StoredLandmark s;
     if (restored_.count(id) > 0) {
@@ -294,7 +281,7 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
         const auto n = static_cast<size_t>(frontend::descriptorBytes(d->second.kind));
         s.descriptor.assign(d->second.bytes.begin(), d->second.bytes.begin() + n);
       }
-      in_store_.insert(id);
+      if (in_store_.insert(id).second) ++own_written_;
     }
     const auto it = queued.find(sid);
     if (it != queued.end()) {
@@ -338,11 +325,85 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
     // Only the session's own landmarks leave the map; a restored one stays (the run's tracker
     // dropping it says nothing against the earlier session's evidence).
     if (in_store_.erase(id) > 0) {
+      --own_written_;
       const auto known = store_id_.find(id);
       batch_.removed.push_back(known != store_id_.end() ? known->second : id);
     }
   }
   if (++frames_in_batch_ >= options_.frames_per_commit) return flush();
+  return Status::ok();
+}
+
+const store::StoredLandmark& MapRecorder::baseRow(uint64_t sid) const {
+  const auto paged = paged_base_.find(sid);
+  return paged != paged_base_.end() ? paged->second : earlier_.at(sid);
+}
+
+store::StoredLandmark MapRecorder::updatedRow(const landmarks::LandmarkDatabase& db,
+                                              const landmarks::Landmark& l,
+                                              uint64_t sid,
+                                              int64_t t_ns) {
+  // The stored row with the observations of every live tracker landmark that is this one.
+  store::StoredLandmark s = baseRow(sid);
+  for (uint64_t tid : seen_as_[sid]) {
+    if (const landmarks::Landmark* seen = db.find(tid)) s.observations += seen->n_obs;
+  }
+  s.confidence = l.confidence;
+  s.last_seen_frame = l.last_seen_frame;
+  s.last_seen_t_ns = t_ns;
+  if (earlier_.count(sid) > 0) updated_.insert(sid);
+  return s;
+}
+
+uint64_t MapRecorder::storeIdOf(uint64_t tracker_id) const {
+  if (const auto known = store_id_.find(tracker_id); known != store_id_.end()) return known->second;
+  return !extending_ && in_store_.count(tracker_id) > 0 ? tracker_id : 0;
+}
+
+Status MapRecorder::pageOut(const landmarks::LandmarkDatabase& db,
+                            const std::vector<uint64_t>& tracker_ids) {
+  if (!committed()) return Status::error("pageOut: recorded rows are still queued");
+  for (uint64_t tid : tracker_ids) {
+    const uint64_t sid = storeIdOf(tid);
+    const landmarks::Landmark* l = db.find(tid);
+    if (sid == 0 || l == nullptr) {
+      return Status::error("pageOut: landmark " + std::to_string(tid) +
+                           " is not a live landmark of the map");
+    }
+    if (restored_.erase(tid) > 0) {
+      // Fold this tracker landmark's observations into the row's base (its row in the store
+      // already holds them: it was written when they were made; the next update sets the time).
+      store::StoredLandmark row = updatedRow(db, *l, sid, baseRow(sid).last_seen_t_ns);
+      std::vector<uint64_t>& seen = seen_as_[sid];
+      seen.erase(std::remove(seen.begin(), seen.end(), tid), seen.end());
+      if (seen.empty()) {
+        seen_as_.erase(sid);
+        paged_base_.erase(sid);
+        if (const auto e = earlier_.find(sid); e != earlier_.end()) e->second = std::move(row);
+      } else {
+        paged_base_[sid] = std::move(row);
+      }
+    }
+    in_store_.erase(tid);
+    store_id_.erase(tid);
+    descriptors_.erase(tid);
+  }
+  return Status::ok();
+}
+
+Status MapRecorder::adoptPagedIn(const std::vector<uint64_t>& tracker_ids,
+                                 std::vector<store::StoredLandmark> rows) {
+  if (tracker_ids.size() != rows.size()) {
+    return Status::error("adoptPagedIn: " + std::to_string(tracker_ids.size()) +
+                         " tracker ids for " + std::to_string(rows.size()) + " map landmarks");
+  }
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const uint64_t sid = rows[i].id;
+    store_id_[tracker_ids[i]] = sid;
+    restored_.insert(tracker_ids[i]);
+    seen_as_[sid].push_back(tracker_ids[i]);
+    paged_base_[sid] = std::move(rows[i]);
+  }
   return Status::ok();
 }
 

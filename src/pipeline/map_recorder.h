@@ -25,6 +25,7 @@
 #include "common/rig.h"
 #include "common/status.h"
 #include "frontend/descriptors.h"
+#include "landmarks/landmark_database.h"
 #include "pipeline/run.h"
 #include "store/landmark_store.h"
 
@@ -106,6 +107,30 @@ class MapRecorder {
   Status adoptRestored(const std::vector<uint64_t>& tracker_ids,
                        const std::vector<uint64_t>& map_ids);
 
+  /// The bounded working set (pipeline/working_set.h) pages confirmed landmarks out of the
+  /// tracker and back in from the store; the recorder keeps the ids and the rows' bases:
+  ///
+  /// True when nothing is queued: every landmark row and pose recorded so far is committed.
+  [[nodiscard]] bool committed() const {
+    return batch_.upserts.empty() && batch_.removed.empty() && batch_.keyframes.empty();
+  }
+  /// The store id of a live tracker landmark whose row is in the map, or 0 (a candidate, or a
+  /// landmark the run confirmed before it was placed in the map).
+  [[nodiscard]] uint64_t storeIdOf(uint64_t tracker_id) const;
+  /// Before the tracker releases these landmarks (Pipeline::pageOutLandmarks; `db` still holds
+  /// them): their rows stay in the map as last written, and the recorder forgets its state for
+  /// them (a restored landmark's observations are folded into its row's base). Call only when
+  /// committed(). Error when an id is not a landmark of the map.
+  Status pageOut(const landmarks::LandmarkDatabase& db, const std::vector<uint64_t>& tracker_ids);
+  /// These map rows joined the tracker as `tracker_ids` (in parallel): when the run sees one
+  /// again its row is updated as a restored landmark's (observations added to the stored count,
+  /// position, descriptor and session kept). Error when the sizes differ.
+  Status adoptPagedIn(const std::vector<uint64_t>& tracker_ids,
+                      std::vector<store::StoredLandmark> rows);
+  [[nodiscard]] const store::LandmarkStore& store() const { return *store_; }
+  /// The run's world frame in the map's (identity for a new map).
+  [[nodiscard]] const Eigen::Isometry3d& T_m_o() const { return T_m_o_; }
+
   /// After each processed frame (RunCallbacks::on_frame): its pose as a keyframe; the landmarks
   /// confirmed or seen in it, and the confirmed landmarks removed, are queued and written every
   /// frames_per_commit frames.
@@ -115,7 +140,7 @@ class MapRecorder {
 
   [[nodiscard]] int32_t session() const { return session_; }
   /// The session's own landmarks in the map (inserted, less those it removed again).
-  [[nodiscard]] int64_t landmarksWritten() const { return static_cast<int64_t>(in_store_.size()); }
+  [[nodiscard]] int64_t landmarksWritten() const { return own_written_; }
   /// Extending: earlier sessions' landmarks this session saw again (updated rows).
   [[nodiscard]] int64_t landmarksUpdated() const { return static_cast<int64_t>(updated_.size()); }
   /// Extending: landmarks the run confirmed that were merged into an earlier session's
@@ -140,8 +165,20 @@ class MapRecorder {
   int32_t session_ = 0;
   store::StoreBatch batch_;
   int frames_in_batch_ = 0;
-  /// Tracker ids of the session's own landmarks in the store.
+  /// Tracker ids of the session's own landmarks in the store that are live in the tracker (a
+  /// landmark paged out leaves the set, its row stays), and how many the session wrote.
   std::unordered_set<uint64_t> in_store_;
+  int64_t own_written_ = 0;
+  /// Rows of landmarks paged back in (adoptPagedIn), by store id, while they are live: the base
+  /// of their updates (before earlier_).
+  std::unordered_map<uint64_t, store::StoredLandmark> paged_base_;
+  /// The row an update of store id `sid` starts from.
+  [[nodiscard]] const store::StoredLandmark& baseRow(uint64_t sid) const;
+  /// The row of a restored landmark `l` (store id `sid`) with the run's observations added.
+  store::StoredLandmark updatedRow(const landmarks::LandmarkDatabase& db,
+                                   const landmarks::Landmark& l,
+                                   uint64_t sid,
+                                   int64_t t_ns);
   /// Every recorded landmark's descriptor by tracker id (an upsert replaces the whole row).
   std::unordered_map<uint64_t, frontend::Descriptor> descriptors_;
   int64_t keyframes_written_ = 0;

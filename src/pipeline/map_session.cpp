@@ -9,6 +9,7 @@ namespace twocam::pipeline {
 
 Status MapSessionOptions::validate() const {
   if (Status s = recorder.validate(); !s) return s;
+  if (Status s = working_set.validate(); !s) return s;
   return relocalizer.validate();
 }
 
@@ -25,6 +26,8 @@ Status MapSession::open(const std::string& path,
   const auto fail = [&](const Status& s) {
     return Status::error("--map " + path + ": " + s.message());
   };
+  if (options.working_set.enabled() && !options.localize_only)
+    session->working_set_ = std::make_unique<WorkingSet>(options.working_set);
   if (options.localize_only) {
     if (Status s = MapRelocalizer::open(path, rig, options.relocalizer, &session->relocalizer_); !s)
       return fail(s);
@@ -64,6 +67,8 @@ Status MapSession::open(const std::string& path,
 }
 
 Status MapSession::addFrame(const RunFrame& frame) {
+  robot_o_ = Eigen::Vector3d(frame.output.pose.x_m, frame.output.pose.y_m, 0.0);
+  last_frame_ = frame.log.index;
   if (recorder_) {
     if (Status s = recorder_->addFrame(frame); !s) return Status::error("--map: " + s.message());
   }
@@ -88,6 +93,18 @@ Status MapSession::addFrame(const RunFrame& frame) {
 }
 
 Status MapSession::betweenFrames(Pipeline* pipeline) {
+  if (Status s = restoreFromRelocalizer(pipeline); !s) return s;
+  // The working set is kept right after a commit: every row it releases is then in the map.
+  if (working_set_ && recorder_ && recorder_->committed() && robot_o_) {
+    if (Status s =
+            working_set_->update(*robot_o_, last_frame_, recorder_.get(), pipeline, &paged_out_);
+        !s)
+      return Status::error("--map " + path_ + ": " + s.message());
+  }
+  return Status::ok();
+}
+
+Status MapSession::restoreFromRelocalizer(Pipeline* pipeline) {
   if (!relocalizer_ || !options_.restore_landmarks) return Status::ok();
   std::vector<uint64_t> map_ids;
   const std::vector<Eigen::Vector3d> p_o = relocalizer_->takeLandmarksToRestore(&map_ids);

@@ -10,7 +10,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "common/rig.h"
 #include "common/status.h"
@@ -18,6 +20,7 @@
 #include "pipeline/map_recorder.h"
 #include "pipeline/map_relocalizer.h"
 #include "pipeline/run.h"
+#include "pipeline/working_set.h"
 
 namespace twocam::pipeline {
 
@@ -29,6 +32,8 @@ struct MapSessionOptions {
   bool restore_landmarks = true;
   MapRecorderOptions recorder;
   MapRelocalizerOptions relocalizer;
+  /// The tracker's bounded working set while the run writes the map (not with localize_only).
+  WorkingSetOptions working_set;
   [[nodiscard]] Status validate() const;
 };
 
@@ -51,6 +56,14 @@ class MapSession {
   /// Writes what the recorder still queues; once, after the run.
   [[nodiscard]] Status finish();
 
+  /// The landmarks the working set paged out of the tracker since the last call (copies of
+  /// their last records, for evaluation); empty without a working set.
+  std::vector<landmarks::Landmark> takePagedOut() { return std::move(paged_out_); }
+  /// The working set's record, nullptr when it is off.
+  [[nodiscard]] const WorkingSetStats* workingSet() const {
+    return working_set_ ? &working_set_->stats() : nullptr;
+  }
+
   [[nodiscard]] const std::string& path() const { return path_; }
   /// The relocalisation's report (--localize-only, or extending a map), nullptr otherwise.
   [[nodiscard]] const RelocalizationReport* relocalization() const;
@@ -64,6 +77,8 @@ class MapSession {
 
  private:
   MapSession() = default;
+  /// Once placed: the map's landmarks the relocaliser hands over join the tracker.
+  Status restoreFromRelocalizer(Pipeline* pipeline);
 
   std::string path_;
   MapSessionOptions options_;
@@ -72,6 +87,11 @@ class MapSession {
   std::string rig_text_, config_text_, log_path_;
   std::unique_ptr<MapRecorder> recorder_;
   std::unique_ptr<MapRelocalizer> relocalizer_;
+  std::unique_ptr<WorkingSet> working_set_;
+  std::vector<landmarks::Landmark> paged_out_;
+  /// The last frame's body position in the run's world frame.
+  std::optional<Eigen::Vector3d> robot_o_;
+  int32_t last_frame_ = -1;
 };
 
 }  // namespace twocam::pipeline

@@ -107,6 +107,10 @@ class Pipeline {
     return ids;
   }
 
+  /// Between frames: these confirmed landmarks leave the database without being removed
+  /// (landmarks::LandmarkDatabase::pageOut; the working set, pipeline/working_set.h).
+  int pageOutLandmarks(const std::vector<uint64_t>& ids) { return db_.pageOut(ids); }
+
   [[nodiscard]] const frontend::Frontend& frontend() const { return frontend_; }
   [[nodiscard]] const landmarks::LandmarkDatabase& database() const { return db_; }
   [[nodiscard]] const mapping::OccupancyMapper& mapper() const { return mapper_; }

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -882,6 +883,47 @@ TEST(LandmarkDatabase, RestoredLandmarksAreConfirmedAndReassociated) {
   EXPECT_EQ(report.hypothesis_landmark_id[0], ids[0]);
   EXPECT_EQ(report.seeded, 0);
   EXPECT_EQ(db.find(ids[0])->last_seen_frame, 1);
+}
+
+TEST(LandmarkDatabase, PagedOutLandmarksLeaveWithoutBeingReportedRemoved) {
+  // The working set (pipeline/working_set.h) pages confirmed landmarks out: they leave the
+  // database, but no FrameReport lists them as removed (the map keeps them); candidates and
+  // unknown ids are not paged. Handed back (restoreConfirmed) they are tracked again.
+  const StereoRig rig = SyntheticStream::defaultRig();
+  LandmarkDatabase db(rig, LandmarkOptions());
+  FrameReport report;
+  Pose2 pose;
+  ASSERT_TRUE(db.update(0, 0, pose, StereoHypotheses(), &report).isOk());
+  const Eigen::Vector3d uvd(300.0, 200.0, 25.0);
+  const Eigen::Vector3d p_w =
+      cameraPoseInWorld(pose, rig.T_b_cl) * *triangulateRectified(rig, uvd.head<2>(), uvd.z());
+  std::vector<uint64_t> ids;
+  db.restoreConfirmed({p_w, p_w + Eigen::Vector3d(0.0, 0.0, 0.3)}, &ids);
+  ASSERT_EQ(ids.size(), 2u);
+  // A candidate seeded from a corner elsewhere in the image.
+  ASSERT_TRUE(
+      db.update(1, 66'666'667, pose, lonePoint(Eigen::Vector3d(100.0, 100.0, 20.0)), &report)
+          .isOk());
+  ASSERT_EQ(db.numCandidates(), 1);
+  const uint64_t candidate = report.created_ids.at(0);
+
+  EXPECT_EQ(db.pageOut({ids[0], candidate, 999'999}), 1);
+  EXPECT_EQ(db.find(ids[0]), nullptr);
+  EXPECT_NE(db.find(candidate), nullptr) << "candidates are never paged";
+  EXPECT_EQ(db.numConfirmed(), 1);
+  EXPECT_EQ(db.pageOut({ids[0]}), 0) << "already out";
+  ASSERT_TRUE(db.update(2, 133'333'333, pose, StereoHypotheses(), &report).isOk());
+  EXPECT_TRUE(std::find(report.removed_ids.begin(), report.removed_ids.end(), ids[0]) ==
+              report.removed_ids.end());
+
+  // Back in: a new id, confirmed at once, associated with its corner in the next frame.
+  std::vector<uint64_t> back;
+  db.restoreConfirmed({p_w}, &back);
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_NE(back[0], ids[0]);
+  ASSERT_TRUE(db.update(3, 200'000'000, pose, lonePoint(uvd), &report).isOk());
+  EXPECT_EQ(report.hypothesis_landmark_id[0], back[0]);
+  EXPECT_EQ(db.numConfirmed(), 2);
 }
 
 }  // namespace

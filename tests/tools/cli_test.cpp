@@ -1258,5 +1258,89 @@ TEST(TwocamCli, StereoEvalTsukubaMeetsTargets) {
   EXPECT_LE(dense.json->at("bad1"), 10.0);
 }
 
+TEST(TwocamCli, RunWithAWorkingSetKeepsTheTrackerBoundedAndTheMapWhole) {
+  const std::string dir = test::makeTempDir("cli_run_working_set");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 90 -q").exit_code,
+            0);
+  const std::string log = dir + "/s.rawlog";
+  const auto metrics = [&](const std::string& out) {
+    return io::Json::parse(readFile(dir + "/" + out + "/metrics.json"));
+  };
+  const auto map_rows = [&](const std::string& map) {
+    std::unique_ptr<store::LandmarkStore> st;
+    store::StoreInfo info;
+    EXPECT_TRUE(store::LandmarkStore::open(map, store::OpenMode::kReadOnly, &st));
+    EXPECT_TRUE(st->info(&info));
+    EXPECT_TRUE(st->integrityCheck());
+    return info.landmark_count;
+  };
+  // Without a working set, and with one whose radius holds the whole world: the same run.
+  ASSERT_EQ(
+      run("run " + log + " -o " + dir + "/all -q --no-pictures --map " + dir + "/all.db").exit_code,
+      0);
+  ASSERT_EQ(run("run " + log + " -o " + dir + "/wide -q --no-pictures --map " + dir +
+                "/wide.db --working-set-radius 1000")
+                .exit_code,
+            0);
+  const io::Json all = metrics("all");
+  const io::Json wide = metrics("wide");
+  EXPECT_EQ(wide["working_set"]["paged_out"].get<int64_t>(), 0) << wide["working_set"].dump();
+  EXPECT_EQ(wide["landmarks"].dump(), all["landmarks"].dump());
+  EXPECT_EQ(wide["trajectory"].dump(), all["trajectory"].dump());
+  EXPECT_EQ(all.count("working_set"), 0u);
+
+  // A cap far below what the run confirms: landmarks out of view leave for the map (those in
+  // view stay, so the cap is exceeded by the view), the tracker holds far fewer than the run
+  // confirmed, the map keeps every landmark the run wrote (its summary line) and passes SQLite's
+  // integrity check, and the run confirms about what it confirms with everything in memory
+  // (nothing in view is paged out and confirmed again).
+  constexpr int kCap = 300;
+  const RunResult capped = run("run " + log + " -o " + dir + "/cap -q --no-pictures --map " + dir +
+                               "/cap.db --working-set-max " + std::to_string(kCap));
+  ASSERT_EQ(capped.exit_code, 0) << capped.output << capped.error;
+  const io::Json cap = metrics("cap");
+  const io::Json& ws = cap["working_set"];
+  EXPECT_GT(ws["paged_out"].get<int64_t>(), 0) << ws.dump();
+  const int all_confirmed = all["landmarks"]["confirmed"].get<int>();
+  EXPECT_GT(all_confirmed, 2 * kCap);
+  EXPECT_LT(ws["max_confirmed"].get<int>(), 0.75 * all_confirmed) << ws.dump();
+  EXPECT_LT(cap["landmarks"]["confirmed"].get<int>(), 1.05 * all_confirmed);
+  const std::string written = "map: ";
+  const size_t at = capped.output.find(written);
+  ASSERT_NE(at, std::string::npos) << capped.output;
+  const int64_t in_summary = std::stoll(capped.output.substr(at + written.size()));
+  EXPECT_EQ(map_rows(dir + "/cap.db"), in_summary);
+  // The landmark metrics judge every landmark the run made, paged out or not: about as many
+  // as without the working set (not only those left in the tracker).
+  EXPECT_GT(cap["landmarks"]["confirmed"].get<int>(), 0.95 * all_confirmed);
+  // Deterministic: the same run again gives the same counts.
+  ASSERT_EQ(run("run " + log + " -o " + dir + "/cap2 -q --no-pictures --map " + dir +
+                "/cap2.db --working-set-max " + std::to_string(kCap))
+                .exit_code,
+            0);
+  EXPECT_EQ(metrics("cap2")["working_set"].dump(), ws.dump());
+  EXPECT_EQ(metrics("cap2")["landmarks"].dump(), cap["landmarks"].dump());
+
+  // A radius smaller than the view: landmarks behind the robot leave, those ahead come back.
+  ASSERT_EQ(run("run " + log + " -o " + dir + "/near -q --no-pictures --map " + dir +
+                "/near.db --working-set-radius 1.5")
+                .exit_code,
+            0);
+  EXPECT_GT(metrics("near")["working_set"]["paged_out"].get<int64_t>(), 0);
+
+  // Bad input: a working set without a map, a negative radius.
+  const RunResult no_map =
+      run("run " + log + " -o " + dir + "/x1 -q --no-pictures --working-set-radius 5");
+  EXPECT_NE(no_map.exit_code, 0);
+  EXPECT_NE(no_map.error.find("--working-set-radius and --working-set-max need --map"),
+            std::string::npos)
+      << no_map.error;
+  const RunResult negative = run("run " + log + " -o " + dir + "/x2 -q --no-pictures --map " + dir +
+                                 "/x2.db --working-set-radius -1");
+  EXPECT_NE(negative.exit_code, 0);
+  EXPECT_NE(negative.error.find("--working-set-radius: -1"), std::string::npos) << negative.error;
+  EXPECT_FALSE(fs::exists(dir + "/x2.db"));
+}
+
 }  // namespace
 }  // namespace twocam

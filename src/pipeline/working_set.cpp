@@ -1,0 +1,162 @@
+#include "pipeline/working_set.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <unordered_set>
+
+#include "common/timer.h"
+#include "pipeline/map_recorder.h"
+#include "pipeline/pipeline.h"
+#include "store/landmark_store.h"
+
+namespace twocam::pipeline {
+
+Status WorkingSetOptions::validate() const {
+  if (!(radius_m >= 0.0 && radius_m <= 1e5)) {
+    return Status::error("--working-set-radius: " + std::to_string(radius_m) +
+                         " (must be in [0, 100000] m; 0: no radius)");
+  }
+  if (!(hysteresis_m >= 0.0 && hysteresis_m <= 1e3)) {
+    return Status::error("--working-set-hysteresis: " + std::to_string(hysteresis_m) +
+                         " (must be in [0, 1000] m)");
+  }
+  if (max_landmarks < 0 || max_landmarks > 100'000'000) {
+    return Status::error("--working-set-max: " + std::to_string(max_landmarks) +
+                         " (must be in [0, 100000000]; 0: no cap)");
+  }
+  return Status::ok();
+}
+
+WorkingSet::WorkingSet(const WorkingSetOptions& options)
+    : options_(options), radius_m_(options.radius_m) {}
+
+Status WorkingSet::update(const Eigen::Vector3d& robot_o,
+                          int32_t frame,
+                          MapRecorder* recorder,
+                          Pipeline* pipeline,
+                          std::vector<landmarks::Landmark>* paged_out) {
+  if (!options_.enabled()) return Status::ok();
+  if (!recorder->committed()) return Status::error("working set: the map has queued rows");
+  const Timer timer;
+  ++stats_.checks;
+  const Eigen::Isometry3d& T_m_o = recorder->T_m_o();
+  const Eigen::Vector3d robot_m = T_m_o * robot_o;
+  const auto distance = [&](const Eigen::Vector3d& p_m) {
+    return std::hypot(p_m.x() - robot_m.x(), p_m.y() - robot_m.y());
+  };
+
+  // 1. Out: the map's landmarks in the tracker beyond the radius (plus hysteresis), then the
+  // farthest above the cap.
+  struct Live {
+    double distance_m;
+    uint64_t tracker_id;
+  };
+  std::vector<Live> stay;
+  std::vector<uint64_t> out;
+  std::unordered_set<uint64_t> held;  // store ids in the tracker, or leaving it now
+  const landmarks::LandmarkDatabase& db = pipeline->database();
+  for (const landmarks::Landmark& l : db.landmarks()) {
+    if (l.state != landmarks::LandmarkState::kConfirmed) continue;
+    const uint64_t sid = recorder->storeIdOf(l.id);
+    if (sid == 0) continue;  // not in the map (yet): never leaves
+    held.insert(sid);
+    if (l.last_seen_frame > last_check_frame_) continue;  // seen since the last check: in view
+    const double d = distance(T_m_o * l.p_w);
+    if (radius_m_ > 0.0 && d > radius_m_ + options_.hysteresis_m) {
+      out.push_back(l.id);
+    } else {
+      stay.push_back({d, l.id});
+    }
+  }
+  last_check_frame_ = frame;
+  // In the tracker and never leaving at this check: not in the map yet, or in view.
+  const int unpaged = db.numConfirmed() - static_cast<int>(stay.size() + out.size());
+  if (options_.max_landmarks > 0 &&
+      static_cast<int64_t>(stay.size()) + unpaged > options_.max_landmarks) {
+    const auto keep = static_cast<size_t>(std::max<int64_t>(
+        0, static_cast<int64_t>(std::floor(kCapRefill * options_.max_landmarks)) - unpaged));
+    std::sort(stay.begin(), stay.end(), [](const Live& a, const Live& b) {
+      return a.distance_m < b.distance_m ||
+             (a.distance_m == b.distance_m && a.tracker_id < b.tracker_id);
+    });
+    for (size_t i = keep; i < stay.size(); ++i) out.push_back(stay[i].tracker_id);
+    // The set shrinks round the robot: what is kept is what lies within the new radius.
+    radius_m_ = keep > 0 ? stay[keep - 1].distance_m : 0.0;
+    stay.resize(std::min(keep, stay.size()));
+  }
+  if (!out.empty()) {
+    if (paged_out != nullptr) {
+      for (uint64_t id : out) paged_out->push_back(*db.find(id));
+    }
+    if (Status s = recorder->pageOut(db, out); !s) return s;
+    const int left = pipeline->pageOutLandmarks(out);
+    if (left != static_cast<int>(out.size())) {
+      return Status::error("working set: " + std::to_string(left) + " of " +
+                           std::to_string(out.size()) + " landmarks left the tracker");
+    }
+    stats_.paged_out += left;
+  }
+
+  // 2. In: the store's landmarks within the radius that the tracker does not hold, nearest first,
+  // up to the cap.
+  if (radius_m_ > 0.0) {
+    const int64_t room =
+        options_.max_landmarks > 0
+            ? options_.max_landmarks - static_cast<int64_t>(pipeline->database().numConfirmed())
+            : std::numeric_limits<int64_t>::max();
+    std::vector<store::StoredLandmark> rows;
+    const double big = 1e9;
+    if (room > 0) {
+      if (Status s = recorder->store().queryBox(
+              Eigen::Vector3d(robot_m.x() - radius_m_, robot_m.y() - radius_m_, -big),
+              Eigen::Vector3d(robot_m.x() + radius_m_, robot_m.y() + radius_m_, big),
+              &rows);
+          !s)
+        return Status::error("working set: " + s.message());
+    }
+    std::vector<std::pair<double, size_t>> order;
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const double d = distance(rows[i].p_m);
+      if (d <= radius_m_ && held.count(rows[i].id) == 0) order.emplace_back(d, i);
+    }
+    const bool all_fit = static_cast<int64_t>(order.size()) <= room;
+    if (!all_fit) {
+      std::sort(order.begin(), order.end());
+      order.resize(static_cast<size_t>(room));
+    }
+    if (!order.empty()) {
+      const Eigen::Isometry3d T_o_m = T_m_o.inverse();
+      std::vector<Eigen::Vector3d> p_o;
+      std::vector<store::StoredLandmark> in;
+      p_o.reserve(order.size());
+      in.reserve(order.size());
+      for (const auto& [d, i] : order) {
+        p_o.push_back(T_o_m * rows[i].p_m);
+        in.push_back(std::move(rows[i]));
+      }
+      const std::vector<uint64_t> ids = pipeline->restoreLandmarks(p_o);
+      if (ids.size() != in.size()) {
+        return Status::error("working set: " + std::to_string(ids.size()) + " of " +
+                             std::to_string(in.size()) + " landmarks joined the tracker");
+      }
+      stats_.paged_in += static_cast<int64_t>(ids.size());
+      if (Status s = recorder->adoptPagedIn(ids, std::move(in)); !s) return s;
+    }
+    // Well under the cap (below kCapRefill^2 of it) with everything in reach taken: the set may
+    // grow again, by the hysteresis per check, up to the configured radius (none: no bound).
+    const double low = kCapRefill * kCapRefill * options_.max_landmarks;
+    if (options_.max_landmarks > 0 && all_fit && pipeline->database().numConfirmed() < low &&
+        (options_.radius_m <= 0.0 || radius_m_ < options_.radius_m)) {
+      radius_m_ += options_.hysteresis_m;
+      if (options_.radius_m > 0.0) radius_m_ = std::min(radius_m_, options_.radius_m);
+    }
+  }
+  stats_.max_confirmed = std::max(stats_.max_confirmed, pipeline->database().numConfirmed());
+  stats_.radius_m = radius_m_;
+  stats_.check_ms.push_back(static_cast<float>(timer.elapsedMs()));
+  return Status::ok();
+}
+
+}  // namespace twocam::pipeline
