@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <opencv2/calib3d.hpp>
 
 namespace twocam::localization {
@@ -50,6 +51,76 @@ class StereoCost final : public ceres::SizedCostFunction<3, 4, 3> {
 
  private:
   StereoResidual f_;
+};
+
+/// All stereo residuals of a frame in one cost function (StereoCostLayout::kOneBlock): rows
+/// 3k..3k+2 are observation k's, robustified inside by the loss exactly as Ceres robustifies a
+/// residual block of its own (Triggs' correction, internal/ceres/corrector.cc: residual and
+/// Jacobian scaled by sqrt(rho'), with the rank-one curvature term where rho'' > 0). Ceres
+/// charges such a block 0.5 rho(s), where 0.5 |corrected residual|^2 is less (rho(s) >= s rho'(s)
+/// for the concave Huber and Cauchy losses), so one last row with a zero Jacobian carries the
+/// difference: the cost, the gradient, the Gauss-Newton matrix and the trust region's model are
+/// those of the per-observation problem, up to rounding.
+class StereoBatchCost final : public ceres::CostFunction {
+ public:
+  explicit StereoBatchCost(const std::vector<StereoResidual>& residuals) : residuals_(residuals) {
+    set_num_residuals(3 * static_cast<int>(residuals.size()) + 1);
+    mutable_parameter_block_sizes()->push_back(4);
+    mutable_parameter_block_sizes()->push_back(3);
+  }
+  /// The loss of every observation (not owned); null = plain least squares.
+  void setLoss(const ceres::LossFunction* loss) { loss_ = loss; }
+
+  bool Evaluate(double const* const* parameters,
+                double* residuals,
+                double** jacobians) const override {
+    const size_t n = residuals_.size();
+    double* j_q = jacobians != nullptr ? jacobians[0] : nullptr;
+    double* j_t = jacobians != nullptr ? jacobians[1] : nullptr;
+    double slack = 0.0;
+    for (size_t k = 0; k < n; ++k) {
+      double* r = residuals + 3 * k;
+      double* j_qk = j_q != nullptr ? j_q + 12 * k : nullptr;
+      double* j_tk = j_t != nullptr ? j_t + 9 * k : nullptr;
+      if (!stereoResidualWithJacobians(residuals_[k], parameters[0], parameters[1], r, j_qk, j_tk))
+        return false;
+      if (loss_ == nullptr) continue;
+      const double s = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+      double rho[3];
+      loss_->Evaluate(s, rho);
+      const double sqrt_rho1 = std::sqrt(rho[1]);
+      double scaling = sqrt_rho1;
+      double alpha_sq_norm = 0.0;
+      if (s > 0.0 && rho[2] > 0.0) {
+        const double alpha = 1.0 - std::sqrt(1.0 + 2.0 * s * rho[2] / rho[1]);
+        scaling = sqrt_rho1 / (1.0 - alpha);
+        alpha_sq_norm = alpha / s;
+      }
+      if (j_qk != nullptr) correctJacobian(r, 4, sqrt_rho1, alpha_sq_norm, j_qk);
+      if (j_tk != nullptr) correctJacobian(r, 3, sqrt_rho1, alpha_sq_norm, j_tk);
+      for (int i = 0; i < 3; ++i) r[i] *= scaling;
+      slack += rho[0] - (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    }
+    residuals[3 * n] = std::sqrt(std::max(0.0, slack));
+    if (j_q != nullptr) std::fill(j_q + 12 * n, j_q + 12 * n + 4, 0.0);
+    if (j_t != nullptr) std::fill(j_t + 9 * n, j_t + 9 * n + 3, 0.0);
+    return true;
+  }
+
+ private:
+  /// J = sqrt(rho') (J - alpha^2/s r r^T J) on a row-major 3 x cols block, r uncorrected.
+  static void correctJacobian(
+      const double* r, int cols, double sqrt_rho1, double alpha_sq_norm, double* J) {
+    for (int c = 0; c < cols; ++c) {
+      const double r_t_j = J[c] * r[0] + J[cols + c] * r[1] + J[2 * cols + c] * r[2];
+      for (int i = 0; i < 3; ++i) {
+        J[i * cols + c] = sqrt_rho1 * (J[i * cols + c] - alpha_sq_norm * r[i] * r_t_j);
+      }
+    }
+  }
+
+  const std::vector<StereoResidual>& residuals_;
+  const ceres::LossFunction* loss_ = nullptr;
 };
 
 }  // namespace
@@ -179,6 +250,14 @@ PoseUpdateResult updatePose(const StereoRig& rig,
                             const PoseWithCovariance& prediction,
                             const std::vector<LandmarkObservation>& observations,
                             const PoseUpdateOptions& options) {
+  return updatePose(rig, prediction, observations, options, StereoCostLayout::kOneBlock);
+}
+
+PoseUpdateResult updatePose(const StereoRig& rig,
+                            const PoseWithCovariance& prediction,
+                            const std::vector<LandmarkObservation>& observations,
+                            const PoseUpdateOptions& options,
+                            StereoCostLayout layout) {
   PoseUpdateResult out;
   out.estimate = prediction;
   out.inlier.assign(observations.size(), 0);
@@ -214,20 +293,33 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   Eigen::Vector3d t = prediction.T_w_b.translation();
   // Two stages: a Huber loss first, which converges from a prediction many sigma off (a slip),
   // then the redescending Cauchy loss from there, which stops wrong associations pulling.
+  const ceres::HuberLoss huber(2.0 * options.cauchy_sigma);
+  const ceres::CauchyLoss cauchy(options.cauchy_sigma);
   ceres::LossFunctionWrapper loss(new ceres::HuberLoss(2.0 * options.cauchy_sigma),
                                   ceres::TAKE_OWNERSHIP);
+  StereoBatchCost batch(residuals);
+  batch.setLoss(&huber);
+  // Everything the problem refers to lives on this stack frame: no ownership, no removal.
+  ceres::AutoDiffCostFunction<PriorResidual, 6, 4, 3> prior(new PriorResidual(prediction, options));
+  std::vector<std::unique_ptr<StereoCost>> per_observation;
+  ceres::EigenQuaternionManifold quaternion_manifold;
   ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.enable_fast_removal = false;
   ceres::Problem problem(po);
-  problem.AddParameterBlock(q.coeffs().data(), 4, new ceres::EigenQuaternionManifold);
+  problem.AddParameterBlock(q.coeffs().data(), 4, &quaternion_manifold);
   problem.AddParameterBlock(t.data(), 3);
-  problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 6, 4, 3>(
-                               new PriorResidual(prediction, options)),
-                           nullptr,
-                           q.coeffs().data(),
-                           t.data());
-  for (const StereoResidual& f : residuals) {
-    problem.AddResidualBlock(new StereoCost(f), &loss, q.coeffs().data(), t.data());
+  problem.AddResidualBlock(&prior, nullptr, q.coeffs().data(), t.data());
+  if (layout == StereoCostLayout::kOneBlock) {
+    problem.AddResidualBlock(&batch, nullptr, q.coeffs().data(), t.data());
+  } else {
+    per_observation.reserve(residuals.size());
+    for (const StereoResidual& f : residuals) {
+      per_observation.push_back(std::make_unique<StereoCost>(f));
+      problem.AddResidualBlock(per_observation.back().get(), &loss, q.coeffs().data(), t.data());
+    }
   }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
@@ -239,6 +331,7 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   ceres::Solve(so, &problem, &summary);
   if (summary.IsSolutionUsable()) {
     loss.Reset(new ceres::CauchyLoss(options.cauchy_sigma), ceres::TAKE_OWNERSHIP);
+    batch.setLoss(&cauchy);
     ceres::Solve(so, &problem, &summary);
   }
   if (!summary.IsSolutionUsable() || !q.coeffs().allFinite() || !t.allFinite()) return out;
