@@ -4,6 +4,7 @@
 #include <ceres/manifold.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <opencv2/calib3d.hpp>
@@ -28,11 +29,17 @@ Eigen::Isometry3d perturb(const Eigen::Isometry3d& T, const Eigen::Vector3d& del
   return out;
 }
 
-bool residualAt(const StereoResidual& f, const Eigen::Isometry3d& T, Eigen::Vector3d* r) {
-  const Eigen::Quaterniond q(T.linear());
-  const Eigen::Vector3d t = T.translation();
-  return f(q.coeffs().data(), t.data(), r->data());
-}
+/// A pose as the solver's parameters (Eigen quaternion, translation), converted once for many
+/// residuals.
+struct PoseParameters {
+  PoseParameters() = default;
+  explicit PoseParameters(const Eigen::Isometry3d& T) : q(T.linear()), t(T.translation()) {}
+  bool residual(const StereoResidual& f, Eigen::Vector3d* r) const {
+    return f(q.coeffs().data(), t.data(), r->data());
+  }
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+};
 
 /// The per-observation cost of the solve: StereoResidual with analytic Jacobians.
 class StereoCost final : public ceres::SizedCostFunction<3, 4, 3> {
@@ -264,11 +271,18 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   std::vector<StereoResidual> residuals;
   std::vector<size_t> used;
   residuals.reserve(observations.size());
+  const PoseParameters predicted(prediction.T_w_b);
+  // The rig's part of every residual, built once (it inverts T_b_cl).
+  const StereoResidual common(rig, LandmarkObservation{}, options);
   for (size_t i = 0; i < observations.size(); ++i) {
-    StereoResidual f(rig, observations[i], options);
+    StereoResidual f = common;
+    f.p_w = observations[i].p_w;
+    f.u = observations[i].u_px;
+    f.v = observations[i].v_px;
+    f.d = observations[i].d_px;
     Eigen::Vector3d r;
     if (!std::isfinite(observations[i].p_w.squaredNorm()) || !(observations[i].d_px > 0.0) ||
-        !residualAt(f, prediction.T_w_b, &r)) {
+        !predicted.residual(f, &r)) {
       continue;
     }
     residuals.push_back(f);
@@ -339,21 +353,27 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = q.normalized().toRotationMatrix();
   T.translation() = t;
-  // Inliers, and their information on (x, y, yaw) by central differences.
+  // Inliers, and their information on (x, y, yaw) by central differences; the perturbed poses
+  // are the same for every observation.
   constexpr double kEps = 1e-6;
+  const PoseParameters at(T);
+  std::array<PoseParameters, 3> plus, minus;
+  for (int c = 0; c < 3; ++c) {
+    Eigen::Vector3d delta = Eigen::Vector3d::Zero();
+    delta[c] = kEps;
+    plus[c] = PoseParameters(perturb(T, delta));
+    minus[c] = PoseParameters(perturb(T, -delta));
+  }
   Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
   int inliers = 0;
   for (size_t k = 0; k < residuals.size(); ++k) {
     Eigen::Vector3d r;
-    if (!residualAt(residuals[k], T, &r) || r.squaredNorm() > options.inlier_chi2) continue;
+    if (!at.residual(residuals[k], &r) || r.squaredNorm() > options.inlier_chi2) continue;
     Eigen::Matrix3d J;
     bool ok = true;
     for (int c = 0; c < 3 && ok; ++c) {
-      Eigen::Vector3d delta = Eigen::Vector3d::Zero();
-      delta[c] = kEps;
       Eigen::Vector3d rp, rm;
-      ok = residualAt(residuals[k], perturb(T, delta), &rp) &&
-           residualAt(residuals[k], perturb(T, -delta), &rm);
+      ok = plus[c].residual(residuals[k], &rp) && minus[c].residual(residuals[k], &rm);
       J.col(c) = (rp - rm) / (2.0 * kEps);
     }
     if (!ok) continue;
