@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <optional>
@@ -198,9 +199,10 @@ bool PoseSearch::fitStep(const StereoRig& rig,
   if (static_cast<int>(obs.size()) < kMinStepMatches) return false;
   // Residuals in pixels (sigma 1 px for u, v and d, as the pose update's defaults), Huber
   // weights at kHuberSigma, numeric Jacobian in (dx, dy, dyaw).
-  const auto residual = [&](const Eigen::Vector3d& x, const Obs& o, Eigen::Vector3d* r) {
-    const Eigen::Isometry3d T_cl_w =
-        (T_w_b_predicted * toIsometry(Pose2{x.x(), x.y(), x.z()}) * rig.T_b_cl).inverse();
+  const auto camera = [&](const Eigen::Vector3d& x) {
+    return (T_w_b_predicted * toIsometry(Pose2{x.x(), x.y(), x.z()}) * rig.T_b_cl).inverse();
+  };
+  const auto residual = [&](const Eigen::Isometry3d& T_cl_w, const Obs& o, Eigen::Vector3d* r) {
     Projected pr{};
     if (!project(rig, T_cl_w * o.p_w, &pr)) return false;
     *r = Eigen::Vector3d(pr.u - o.u, pr.v - o.v, pr.d - o.d);
@@ -213,19 +215,25 @@ bool PoseSearch::fitStep(const StereoRig& rig,
     H.setZero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
     inliers = 0;
+    // The camera at x and at x stepped along each axis, shared by every observation.
+    const Eigen::Isometry3d T_cl_w = camera(x);
+    std::array<Eigen::Isometry3d, 3> T_cl_w_step;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3d xe = x;
+      xe[k] += kJacobianStep;
+      T_cl_w_step[static_cast<size_t>(k)] = camera(xe);
+    }
     for (const Obs& o : obs) {
       Eigen::Vector3d r = Eigen::Vector3d::Zero();
-      if (!residual(x, o, &r)) continue;
+      if (!residual(T_cl_w, o, &r)) continue;
       const double n = r.norm();
       const bool inlier = n * n <= kInlierChi2;
       const double w = n <= kHuberSigma ? 1.0 : kHuberSigma / n;
       Eigen::Matrix3d J;
       bool ok = true;
       for (int k = 0; k < 3 && ok; ++k) {
-        Eigen::Vector3d xe = x;
-        xe[k] += kJacobianStep;
         Eigen::Vector3d re = Eigen::Vector3d::Zero();
-        ok = residual(xe, o, &re);
+        ok = residual(T_cl_w_step[static_cast<size_t>(k)], o, &re);
         J.col(k) = (re - r) / kJacobianStep;
       }
       if (!ok) continue;

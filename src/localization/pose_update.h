@@ -71,6 +71,21 @@ PoseUpdateResult updatePose(const StereoRig& rig,
                             const std::vector<LandmarkObservation>& observations,
                             const PoseUpdateOptions& options);
 
+/// How updatePose hands the stereo residuals to Ceres. The two give the same minimisation up to
+/// rounding (tests/localization/pose_update_test.cpp); the per-observation layout is kept as
+/// the reference of that test and of localization_bench.
+enum class StereoCostLayout {
+  kOneBlock,        ///< one cost function, 3 rows per observation, the loss applied inside
+  kPerObservation,  ///< one Ceres residual block per observation with Ceres' loss
+};
+
+/// updatePose with the stereo residuals laid out as `layout` (the overload above: kOneBlock).
+PoseUpdateResult updatePose(const StereoRig& rig,
+                            const PoseWithCovariance& prediction,
+                            const std::vector<LandmarkObservation>& observations,
+                            const PoseUpdateOptions& options,
+                            StereoCostLayout layout);
+
 /// Normalised stereo residual of one observation for a body pose (q_w_b, t_w_b): ((u, v, d)
 /// predicted - observed) / sigma. Templated for Ceres's automatic differentiation; public for
 /// the Jacobian test.

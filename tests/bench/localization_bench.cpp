@@ -59,18 +59,28 @@ PoseWithCovariance prediction() {
   return p;
 }
 
-void BM_UpdatePoseCeres(benchmark::State& state) {
+void updatePoseBench(benchmark::State& state, twocam::localization::StereoCostLayout layout) {
   const StereoRig rig = benchRig();
   const auto obs = observations(rig, twocam::toIsometry(Pose2{1.0, 0.0, 0.0}), state.range(0));
   const PoseWithCovariance pred = prediction();
   const twocam::localization::PoseUpdateOptions options;
   int inliers = 0;
   for (auto _ : state) {
-    const auto r = twocam::localization::updatePose(rig, pred, obs, options);
+    const auto r = twocam::localization::updatePose(rig, pred, obs, options, layout);
     inliers = r.inliers;
     benchmark::DoNotOptimize(r.estimate.T_w_b);
   }
   state.counters["inliers"] = inliers;
+}
+
+/// The pose update as the pipeline runs it: the stereo residuals in one cost function.
+void BM_UpdatePoseCeres(benchmark::State& state) {
+  updatePoseBench(state, twocam::localization::StereoCostLayout::kOneBlock);
+}
+
+/// The same with one Ceres residual block per observation (the layout before 2026-12-05).
+void BM_UpdatePoseCeresPerObservation(benchmark::State& state) {
+  updatePoseBench(state, twocam::localization::StereoCostLayout::kPerObservation);
 }
 
 void BM_SolvePnPRansacOpenCV(benchmark::State& state) {
@@ -177,6 +187,11 @@ void BM_BFMatcherHammingOpenCV(benchmark::State& state) {
 }
 
 BENCHMARK(BM_UpdatePoseCeres)->Arg(50)->Arg(150)->Arg(400)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_UpdatePoseCeresPerObservation)
+    ->Arg(50)
+    ->Arg(150)
+    ->Arg(400)
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SolvePnPRansacOpenCV)->Arg(50)->Arg(150)->Arg(400)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_RelocalizeMatchOrb)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BFMatcherHammingOpenCV)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
