@@ -25,6 +25,9 @@ struct RunArgs {
   /// With map_path: relocalise in the map and give the run's poses in its frame; the map is
   /// only read (pipeline/map_relocalizer.h).
   bool localize_only = false;
+  /// With map_path (recording): one line per committed store transaction, "session S frame F
+  /// keyframes K", flushed to the file once the commit has returned (replaced at the start).
+  std::optional<std::string> map_commit_log;
   /// Frame (counted from 0) drawn in sample_frame/; default: the middle of the log.
   std::optional<int> sample_frame;
   /// Do not call scripts/plot_run.py at the end.

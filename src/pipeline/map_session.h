@@ -50,6 +50,9 @@ class MapSession {
   [[nodiscard]] Status betweenFrames(Pipeline* pipeline);
   /// Writes what the recorder still queues; once, after the run.
   [[nodiscard]] Status finish();
+  /// Told of every store transaction the run commits (MapRecorder::setCommitObserver), from the
+  /// recorder of a new map and from the one an extended map gets once the run is placed.
+  void setCommitObserver(MapCommitObserver observer);
 
   [[nodiscard]] const std::string& path() const { return path_; }
   /// The relocalisation's report (--localize-only, or extending a map), nullptr otherwise.
@@ -72,6 +75,7 @@ class MapSession {
   std::string rig_text_, config_text_, log_path_;
   std::unique_ptr<MapRecorder> recorder_;
   std::unique_ptr<MapRelocalizer> relocalizer_;
+  MapCommitObserver on_commit_;
 };
 
 }  // namespace twocam::pipeline
