@@ -6,8 +6,9 @@ and holds every frame the run reported committed; a second run on it must contin
 The log is a short office log (simulated, or --log). Two uninterrupted reference runs come first:
 one creating a map (session 1) and one extending a copy of it (session 2, relocalised first);
 their wall times set the range of the kill moments and their keyframes are the frames a killed
-run may have committed. Trial i then kills, at a uniform random fraction of the reference time,
-a run that creates a new map (even i) or extends a copy of the reference map (odd i). The run
+run may have committed. Trial i then kills, at a uniform random fraction of the reference time
+(a run that ends first is drawn again), a run that creates a new map (even i) or extends a copy
+of the reference map (odd i). The run
 reports its commits with --map-commit-log (a line per committed transaction, written after the
 commit). After the kill:
   opened     `twocam map info MAP` exits 0 (a run killed before the map existed leaves none:
@@ -130,30 +131,37 @@ def main():
           f"keyframes from frame {ref_frames[2][0] if ref_frames[2] else '-'})")
 
     rng = random.Random(a.seed)
-    counts = dict(trials=0, killed=0, no_store=0, opened=0, integrity=0, committed=0,
+    counts = dict(trials=0, killed=0, redrawn=0, no_store=0, opened=0, integrity=0, committed=0,
                   continued=0, failed=0)
     reported_total = 0
     for i in range(a.trials):
         extend = i % 2 == 1
-        fraction = rng.random()
-        delay = fraction * (t_extend if extend else t_new)
         d = os.path.join(a.out, f"t{i:02d}")
-        os.makedirs(d)
         db = os.path.join(d, "map.db")
-        if extend:
-            copy_map(ref_db, db)
         commits = os.path.join(d, "commits.txt")
-        p = subprocess.Popen(run_cmd(os.path.join(d, "out"), db, ["--map-commit-log", commits]),
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        try:
-            p.wait(timeout=delay)
-            killed = False
-        except subprocess.TimeoutExpired:
-            os.kill(p.pid, signal.SIGKILL)
-            p.wait()
-            killed = True
+        # A run that ends before its kill moment (the machine's load varies) is no trial: the
+        # next draw is taken, up to 5 times.
+        for attempt in range(5):
+            fraction = rng.random()
+            delay = fraction * (t_extend if extend else t_new)
+            shutil.rmtree(d, ignore_errors=True)
+            os.makedirs(d)
+            if extend:
+                copy_map(ref_db, db)
+            p = subprocess.Popen(
+                run_cmd(os.path.join(d, "out"), db, ["--map-commit-log", commits]),
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            try:
+                p.wait(timeout=delay)
+                killed = False
+            except subprocess.TimeoutExpired:
+                os.kill(p.pid, signal.SIGKILL)
+                p.wait()
+                killed = True
+                break
         counts["trials"] += 1
         counts["killed"] += killed
+        counts["redrawn"] += attempt
         reported = last_commit(commits)
         problems = []
         notes = []
@@ -164,7 +172,7 @@ def main():
             notes.append("no map yet (killed while creating it)")
             if reported is not None:
                 problems.append(f"commits reported ({reported}) but no map")
-            ok_open = ok_integrity = ok_committed = reported is None
+            ok_committed = reported is None
         else:
             info = run([tw, "map", "info", db])
             ok_open = info.returncode == 0
@@ -210,7 +218,7 @@ def main():
                         notes.append(f"session {ss[-1]} holds {len(held)} keyframes")
         counts["opened"] += ok_open
         counts["integrity"] += ok_integrity
-        counts["committed"] += ok_committed
+        counts["committed"] += ok_committed and had_map
         # The second run continues on what the kill left.
         before = sessions(db) if os.path.exists(db) else []
         second = run(run_cmd(os.path.join(d, "out2"), db,
@@ -247,12 +255,13 @@ def main():
               f"{' FAIL: ' + '; '.join(problems) if failed else ''}")
     c = counts
     maps = c["trials"] - c["no_store"]
-    print(f"summary (seed {a.seed}): trials {c['trials']}, killed {c['killed']}, "
+    print(f"summary (seed {a.seed}): trials {c['trials']}, killed {c['killed']} "
+          f"({c['redrawn']} runs ended before their kill moment and were drawn again), "
           f"left no map (killed while creating, nothing reported) {c['no_store']}; of the "
           f"{maps} maps: opened {c['opened']}/{maps}, integrity ok {c['integrity']}/{maps}, "
           f"held every reported frame {c['committed']}/{maps} ({reported_total} reported frames "
           f"checked); continued {c['continued']}/{c['trials']}; failed {c['failed']}")
-    return 1 if c["failed"] else 0
+    return 1 if c["failed"] or c["killed"] < c["trials"] else 0
 
 
 if __name__ == "__main__":
