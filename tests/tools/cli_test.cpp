@@ -562,6 +562,10 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
   EXPECT_TRUE(fs::exists(dir + "/loc/trajectory_map.tum"));
   // The map's landmarks joined the run's tracker after placement.
   EXPECT_GT(reloc["restored_landmarks"].get<int64_t>(), 0) << reloc.dump();
+  // The map's opening and the placement are timed: placed after it was opened and read.
+  ASSERT_TRUE(reloc["open_ms"].is_number() && reloc["placed_ms"].is_number()) << reloc.dump();
+  EXPECT_GT(reloc["open_ms"].get<double>(), 0.0);
+  EXPECT_GT(reloc["placed_ms"].get<double>(), reloc["open_ms"].get<double>());
   EXPECT_NE(loc.output.find("relocalisation: frame 0 placed"), std::string::npos) << loc.output;
   const RunResult no_map =
       run("run " + dir + "/s.rawlog -o " + dir + "/nomap -q --no-pictures --localize-only");
