@@ -74,6 +74,17 @@ int runInfo(const MapArgs& args) {
   return 0;
 }
 
+int runCheck(const MapArgs& args) {
+  std::unique_ptr<store::LandmarkStore> map;
+  if (Status st = store::LandmarkStore::open(args.map_path, store::OpenMode::kReadOnly, &map);
+      !st) {
+    return fail("check", st.message());
+  }
+  if (Status st = map->integrityCheck(); !st) return fail("check", st.message());
+  std::cout << args.map_path << ": integrity check ok\n";
+  return 0;
+}
+
 int runExport(const MapArgs& args) {
   if (args.ply_path.empty() && args.mrpt_path.empty()) {
     return fail("export", "nothing to write: give --ply OUT.ply and/or --mrpt OUT.txt");
@@ -114,6 +125,11 @@ MapCommand addMapCommand(CLI::App& app, MapArgs* args) {
       "Print what a map holds: schema version, sessions, landmark and keyframe counts, bounding "
       "box, file size");
   c.info->add_option("map", args->map_path, "Landmark store (SQLite)")->required();
+  c.check = c.map->add_subcommand(
+      "check",
+      "Run SQLite's full PRAGMA integrity_check on a map (read only); exit status 1 when it "
+      "fails");
+  c.check->add_option("map", args->map_path, "Landmark store (SQLite)")->required();
   c.export_command = c.map->add_subcommand(
       "export", "Write the map's landmarks as a PLY point cloud and/or an MRPT points map");
   c.export_command->add_option("map", args->map_path, "Landmark store (SQLite)")->required();
@@ -132,8 +148,9 @@ MapCommand addMapCommand(CLI::App& app, MapArgs* args) {
 
 int runMap(const MapCommand& command, const MapArgs& args) {
   if (command.info->parsed()) return runInfo(args);
+  if (command.check->parsed()) return runCheck(args);
   if (command.export_command->parsed()) return runExport(args);
-  return fail("", "give a subcommand: info or export");
+  return fail("", "give a subcommand: info, check or export");
 }
 
 }  // namespace twocam::tools

@@ -1,7 +1,8 @@
 #pragma once
-/// `twocam map info MAP.db` and `twocam map export MAP.db [--ply OUT.ply] [--mrpt OUT.txt]`:
-/// what a landmark store holds, and its landmarks in formats other tools read (docs/store.md).
-/// Both open the store read-only: the map is never modified.
+/// `twocam map info MAP.db`, `twocam map check MAP.db` and `twocam map export MAP.db
+/// [--ply OUT.ply] [--mrpt OUT.txt]`: what a landmark store holds, whether it passes SQLite's
+/// full integrity check, and its landmarks in formats other tools read (docs/store.md). All open
+/// the store read-only: the map is never modified.
 
 #include <CLI/CLI.hpp>
 #include <string>
@@ -22,13 +23,15 @@ struct MapArgs {
 struct MapCommand {
   CLI::App* map = nullptr;
   CLI::App* info = nullptr;
+  CLI::App* check = nullptr;
   CLI::App* export_command = nullptr;
 };
 
-/// Registers `map` with its `info` and `export` subcommands on `app`, parsing into *args.
+/// Registers `map` with its `info`, `check` and `export` subcommands on `app`, parsing into *args.
 MapCommand addMapCommand(CLI::App& app, MapArgs* args);
 
-/// Runs the parsed subcommand. Returns the exit code (0 ok, 1 error); an error is one line
+/// Runs the parsed subcommand. Returns the exit code (0 ok, 1 error: for `check`, a store that
+/// cannot be opened or fails the integrity check); an error is one line
 /// "twocam map <sub>: error: ..." naming the path, on stderr.
 int runMap(const MapCommand& command, const MapArgs& args);
 

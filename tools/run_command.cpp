@@ -1,6 +1,9 @@
 #include "run_command.h"
 
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -39,6 +42,8 @@ int runRun(const RunArgs& args) {
   if ((args.working_set_radius_m || args.working_set_max) && (!args.map_path || args.localize_only))
     return fail(
         "--working-set-radius and --working-set-max need --map MAP.db (not --localize-only)");
+  if (args.map_commit_log && (!args.map_path || args.localize_only))
+    return fail("--map-commit-log needs --map MAP.db without --localize-only");
 
   eval::RunEvaluator::Inputs inputs;
   inputs.log_path = args.log_path;
@@ -71,6 +76,24 @@ int runRun(const RunArgs& args) {
             *args.map_path, reader->rig(), config, args.log_path, mopt, &map);
         !s)
       return fail(s.message());
+  }
+  // The commit log: a line per commit, flushed to the kernel before the run goes on, so a
+  // process killed after the line has been written keeps both the commit and the line.
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> commit_log(nullptr, &std::fclose);
+  if (args.map_commit_log) {
+    commit_log.reset(std::fopen(args.map_commit_log->c_str(), "w"));
+    if (!commit_log) {
+      return fail("--map-commit-log " + *args.map_commit_log +
+                  ": cannot write: " + std::strerror(errno));
+    }
+    map->setCommitObserver([log = commit_log.get()](const pipeline::MapCommit& c) {
+      std::fprintf(log,
+                   "session %d frame %d keyframes %lld\n",
+                   c.session,
+                   c.last_frame,
+                   static_cast<long long>(c.keyframes));
+      std::fflush(log);
+    });
   }
 
   const int total = framesToRun(args.log_path, args.max_frames);

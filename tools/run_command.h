@@ -29,6 +29,9 @@ struct RunArgs {
   /// count cap; absent: everything stays in memory.
   std::optional<double> working_set_radius_m;
   std::optional<int> working_set_max;
+  /// With map_path (recording): one line per committed store transaction, "session S frame F
+  /// keyframes K", flushed to the file once the commit has returned (replaced at the start).
+  std::optional<std::string> map_commit_log;
   /// Frame (counted from 0) drawn in sample_frame/; default: the middle of the log.
   std::optional<int> sample_frame;
   /// Do not call scripts/plot_run.py at the end.

@@ -181,6 +181,13 @@ int main(int argc, char** argv) {
       run_ws_max,
       "With --map: at most this many of the map's confirmed landmarks in the tracker, the "
       "nearest (docs/store.md#working-set)");
+  std::string run_commit_log;
+  auto* run_commit_log_opt = run_cmd->add_option(
+      "--map-commit-log",
+      run_commit_log,
+      "With --map: write one line 'session S frame F keyframes K' to this file (replaced) after "
+      "each store transaction has committed, flushed at once: every frame of session S up to F "
+      "is then in the map, even if the run is killed (crash trials, docs/store.md)");
   run_cmd->add_flag(
       "--no-pictures", run.no_pictures, "Do not draw the pictures (scripts/plot_run.py)");
   run_cmd->add_flag("-q,--quiet", run.quiet, "No progress bar");
@@ -266,6 +273,7 @@ int main(int argc, char** argv) {
       if (run_map_opt->count() > 0) run.map_path = run_map;
       if (run_ws_radius_opt->count() > 0) run.working_set_radius_m = run_ws_radius;
       if (run_ws_max_opt->count() > 0) run.working_set_max = run_ws_max;
+      if (run_commit_log_opt->count() > 0) run.map_commit_log = run_commit_log;
       return twocam::tools::runRun(run);
     }
     if (map_cmd.map->parsed()) return twocam::tools::runMap(map_cmd, map_args);

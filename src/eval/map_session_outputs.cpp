@@ -20,6 +20,8 @@ io::Json relocalizationJson(const pipeline::RelocalizationReport& r,
             {"attempts", r.attempts},
             {"map_landmarks", r.map_landmarks},
             {"attempt_ms_median", ms.empty() ? Json(nullptr) : numberOrNull(quantile(ms, 0.5))},
+            {"open_ms", numberOrNull(r.open_ms)},
+            {"placed_ms", r.frame < 0 ? Json(nullptr) : numberOrNull(r.placed_ms)},
             {"error_m", nullptr},
             {"error_deg", nullptr},
             {"ate_rmse_m", nullptr}};

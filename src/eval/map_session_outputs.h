@@ -14,7 +14,9 @@ namespace twocam::eval {
 
 /// metrics.json `relocalization` (`--localize-only`, pipeline/map_relocalizer.h): `frame` (first
 /// frame placed in the map, -1 when never), `attempts`, `map_landmarks`, the placement's
-/// `inliers`, `verified` and `verified_fraction`, `attempt_ms_median`, and against the log's true
+/// `inliers`, `verified` and `verified_fraction`, `attempt_ms_median`, `open_ms` (the map opened
+/// and read), `placed_ms` (from opening the map to the end of the placing attempt, null when
+/// never placed), and against the log's true
 /// poses (the map frame being the true world frame of the run that built it) `error_m`,
 /// `error_deg` at the placed frame and `ate_rmse_m` of the run's track in the map frame from
 /// there; each absent (null) with `absent` saying why when it cannot be computed.

@@ -414,6 +414,10 @@ Status MapRecorder::flush() {
   // A landmark removed after it was queued in this batch: the removal wins (applied after the
   // upserts).
   const Status s = store_->writeBatch(batch_);
+  if (s && !batch_.keyframes.empty()) {
+    keyframes_committed_ += static_cast<int64_t>(batch_.keyframes.size());
+    if (on_commit_) on_commit_({session_, batch_.keyframes.back().frame, keyframes_committed_});
+  }
   batch_ = store::StoreBatch();
   return s;
 }

@@ -16,10 +16,12 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 #include "common/rig.h"
@@ -57,6 +59,18 @@ struct MapRecorderOptions {
   double merge_max_descriptor_distance = 0.2;
   [[nodiscard]] Status validate() const;
 };
+
+/// One store transaction the recorder committed (MapRecorder::setCommitObserver): the
+/// session, and the last log frame whose pose and landmarks it holds. Every frame of the session
+/// recorded up to `last_frame` is in the store when the observer is called.
+struct MapCommit {
+  int32_t session = 0;
+  int32_t last_frame = -1;
+  /// Keyframes the session has committed so far [-].
+  int64_t keyframes = 0;
+};
+
+using MapCommitObserver = std::function<void(const MapCommit&)>;
 
 /// The rig as YAML text (the world file's `rig:` keys), for the store's session record.
 std::string rigText(const StereoRig& rig);
@@ -137,6 +151,10 @@ class MapRecorder {
   Status addFrame(const RunFrame& frame);
   /// Writes what is queued. Call once at the end of the run.
   Status finish();
+  /// Called after each transaction that committed at least one keyframe, once writeBatch has
+  /// returned (so a process killed after the call keeps what it reports; one killed between the
+  /// commit and the call holds a frame more than was reported). Empty: nothing is called.
+  void setCommitObserver(MapCommitObserver observer) { on_commit_ = std::move(observer); }
 
   [[nodiscard]] int32_t session() const { return session_; }
   /// The session's own landmarks in the map (inserted, less those it removed again).
@@ -182,6 +200,8 @@ class MapRecorder {
   /// Every recorded landmark's descriptor by tracker id (an upsert replaces the whole row).
   std::unordered_map<uint64_t, frontend::Descriptor> descriptors_;
   int64_t keyframes_written_ = 0;
+  int64_t keyframes_committed_ = 0;
+  MapCommitObserver on_commit_;
 
   // Extending (extend()): the map frame, the placed frame, and the ids.
   bool extending_ = false;

@@ -29,11 +29,11 @@ Status MapRelocalizer::open(const std::string& path,
                             const MapRelocalizerOptions& options,
                             std::unique_ptr<MapRelocalizer>* out) {
   if (Status s = options.validate(); !s) return s;
+  std::unique_ptr<MapRelocalizer> r(new MapRelocalizer());  // starts since_open_
   std::unique_ptr<store::LandmarkStore> st;
   if (Status s = store::LandmarkStore::open(path, store::OpenMode::kReadOnly, &st); !s) return s;
   std::vector<store::StoredLandmark> stored;
   if (Status s = st->loadAll(&stored); !s) return s;
-  std::unique_ptr<MapRelocalizer> r(new MapRelocalizer());
   r->rig_ = rig;
   r->options_ = options;
   const uint8_t kind = storedDescriptorKind(options.descriptors.kind);
@@ -54,6 +54,7 @@ Status MapRelocalizer::open(const std::string& path,
         frontend::descriptorKindName(options.descriptors.kind) + " descriptor to relocalise with");
   }
   r->report_.map_landmarks = static_cast<int64_t>(r->map_.size());
+  r->report_.open_ms = r->since_open_.elapsedMs();
   if (!options.restore_without_descriptor) {
     r->restore_.reserve(r->map_.size());
     for (const localization::MapLandmark& m : r->map_) r->restore_.emplace_back(m.id, m.p_m);
@@ -127,6 +128,7 @@ Status MapRelocalizer::addFrame(const RunFrame& frame) {
     return Status::ok();
   }
   placed_ = true;
+  report_.placed_ms = since_open_.elapsedMs();
   report_.frame = frame.log.index;
   report_.T_m_b = result.T_m_b;
   report_.inliers = result.inliers;

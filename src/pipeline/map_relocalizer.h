@@ -18,6 +18,7 @@
 
 #include "common/rig.h"
 #include "common/status.h"
+#include "common/timer.h"
 #include "frontend/descriptors.h"
 #include "io/trajectory.h"
 #include "localization/relocalize.h"
@@ -61,6 +62,11 @@ struct RelocalizationReport {
   int64_t map_landmarks = 0;
   /// Per attempt: relocalize() time [ms].
   std::vector<double> attempt_ms;
+  /// Wall time of open(): the store opened and read, the landmarks to match kept [ms].
+  double open_ms = 0.0;
+  /// Wall time from the start of open() to the end of the placing attempt (the frames processed
+  /// meanwhile included) [ms]; 0 when never placed.
+  double placed_ms = 0.0;
   /// The run's poses in the map frame from the placed frame on.
   std::vector<io::TimedPose> map_track;
   /// Map landmarks handed to the run's tracker after placement.
@@ -101,6 +107,7 @@ class MapRelocalizer {
   int frames_seen_ = 0;  // processed frames before placement
   Eigen::Isometry3d T_m_o_ = Eigen::Isometry3d::Identity();
   RelocalizationReport report_;
+  Timer since_open_;
 };
 
 /// The descriptor kind as stored (StoredLandmark::descriptor_kind): 0 = none, 1 + the kind.

@@ -1,6 +1,7 @@
 #include "pipeline/map_session.h"
 
 #include <filesystem>
+#include <utility>
 #include <vector>
 
 #include "store/landmark_store.h"
@@ -88,6 +89,7 @@ Status MapSession::addFrame(const RunFrame& frame) {
                                      &recorder_);
       !s)
     return Status::error("--map " + path_ + ": " + s.message());
+  recorder_->setCommitObserver(on_commit_);
   if (Status s = recorder_->addFrame(frame); !s) return Status::error("--map: " + s.message());
   return Status::ok();
 }
@@ -122,6 +124,11 @@ Status MapSession::finish() {
   if (Status s = recorder_->finish(); !s)
     return Status::error("--map " + path_ + ": " + s.message());
   return Status::ok();
+}
+
+void MapSession::setCommitObserver(MapCommitObserver observer) {
+  on_commit_ = std::move(observer);
+  if (recorder_) recorder_->setCommitObserver(on_commit_);
 }
 
 const RelocalizationReport* MapSession::relocalization() const {

@@ -55,6 +55,9 @@ class MapSession {
   [[nodiscard]] Status betweenFrames(Pipeline* pipeline);
   /// Writes what the recorder still queues; once, after the run.
   [[nodiscard]] Status finish();
+  /// Told of every store transaction the run commits (MapRecorder::setCommitObserver), from the
+  /// recorder of a new map and from the one an extended map gets once the run is placed.
+  void setCommitObserver(MapCommitObserver observer);
 
   /// The landmarks the working set paged out of the tracker since the last call (copies of
   /// their last records, for evaluation); empty without a working set.
@@ -87,11 +90,15 @@ class MapSession {
   std::string rig_text_, config_text_, log_path_;
   std::unique_ptr<MapRecorder> recorder_;
   std::unique_ptr<MapRelocalizer> relocalizer_;
+<<<<<<< HEAD
   std::unique_ptr<WorkingSet> working_set_;
   std::vector<landmarks::Landmark> paged_out_;
   /// The last frame's body position in the run's world frame.
   std::optional<Eigen::Vector3d> robot_o_;
   int32_t last_frame_ = -1;
+=======
+  MapCommitObserver on_commit_;
+>>>>>>> crash
 };
 
 }  // namespace twocam::pipeline

@@ -562,6 +562,10 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
   EXPECT_TRUE(fs::exists(dir + "/loc/trajectory_map.tum"));
   // The map's landmarks joined the run's tracker after placement.
   EXPECT_GT(reloc["restored_landmarks"].get<int64_t>(), 0) << reloc.dump();
+  // The map's opening and the placement are timed: placed after it was opened and read.
+  ASSERT_TRUE(reloc["open_ms"].is_number() && reloc["placed_ms"].is_number()) << reloc.dump();
+  EXPECT_GT(reloc["open_ms"].get<double>(), 0.0);
+  EXPECT_GT(reloc["placed_ms"].get<double>(), reloc["open_ms"].get<double>());
   EXPECT_NE(loc.output.find("relocalisation: frame 0 placed"), std::string::npos) << loc.output;
   const RunResult no_map =
       run("run " + dir + "/s.rawlog -o " + dir + "/nomap -q --no-pictures --localize-only");
@@ -575,6 +579,72 @@ TEST(TwocamCli, RunRecordsItsMapAndRefusesToOverwriteOne) {
   EXPECT_NE(bad.error.find("notes.txt"), std::string::npos) << bad.error;
   EXPECT_EQ(readFile(dir + "/notes.txt"), "not a map\n");
   EXPECT_FALSE(fs::exists(dir + "/out3"));
+}
+
+TEST(TwocamCli, RunReportsEachMapCommitAndMapCheckRunsTheIntegrityCheck) {
+  const std::string dir = test::makeTempDir("cli_run_map_commits");
+  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 25 --seed 3 -q")
+                .exit_code,
+            0);
+  const std::string map = dir + "/m.db";
+  const RunResult r = run("run " + dir + "/s.rawlog -o " + dir + "/out -q --no-pictures --map " +
+                          map + " --map-commit-log " + dir + "/commits.txt");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // One line per transaction of 10 frames (MapRecorderOptions::frames_per_commit), the last one
+  // the end of the run; each names the last frame it committed.
+  EXPECT_EQ(readFile(dir + "/commits.txt"),
+            "session 1 frame 9 keyframes 10\n"
+            "session 1 frame 19 keyframes 20\n"
+            "session 1 frame 24 keyframes 25\n");
+  const RunResult check = run("map check " + map);
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  EXPECT_NE(check.output.find(map + ": integrity check ok"), std::string::npos) << check.output;
+
+  // Extending the map: the commits are the new session's, from the placed frame on.
+  const RunResult second = run("run " + dir + "/s.rawlog -o " + dir + "/out2 -q --no-pictures " +
+                               "--map " + map + " --map-commit-log " + dir + "/commits.txt");
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_EQ(readFile(dir + "/commits.txt").rfind("session 2 frame ", 0), 0u)
+      << readFile(dir + "/commits.txt");
+  EXPECT_NE(readFile(dir + "/commits.txt").find("session 2 frame 24 keyframes "),
+            std::string::npos);
+
+  // Misuse: a clear error, nothing run.
+  const RunResult no_map = run("run " + dir + "/s.rawlog -o " + dir + "/out3 -q --no-pictures " +
+                               "--map-commit-log " + dir + "/c3.txt");
+  EXPECT_EQ(no_map.exit_code, 1);
+  EXPECT_NE(no_map.error.find("--map-commit-log needs --map"), std::string::npos) << no_map.error;
+  const RunResult loc = run("run " + dir + "/s.rawlog -o " + dir + "/out4 -q --no-pictures --map " +
+                            map + " --localize-only --map-commit-log " + dir + "/c4.txt");
+  EXPECT_EQ(loc.exit_code, 1);
+  EXPECT_NE(loc.error.find("without --localize-only"), std::string::npos) << loc.error;
+  const RunResult unwritable =
+      run("run " + dir + "/s.rawlog -o " + dir + "/out5 -q " + "--no-pictures --map " + map +
+          " --map-commit-log " + dir + "/absent/c5.txt");
+  EXPECT_EQ(unwritable.exit_code, 1);
+  EXPECT_NE(unwritable.error.find(dir + "/absent/c5.txt"), std::string::npos) << unwritable.error;
+  EXPECT_FALSE(fs::exists(dir + "/c3.txt"));
+  EXPECT_FALSE(fs::exists(dir + "/c4.txt"));
+
+  // map check on a damaged map (pages 3..6 overwritten) or on another file: exit 1 naming it,
+  // the file unchanged.
+  constexpr size_t kPageBytes = 4096;  // SQLite's default page size
+  std::string bytes = readFile(map);
+  ASSERT_GT(bytes.size(), 8 * kPageBytes);
+  std::mt19937 rng(5);
+  for (size_t i = 2 * kPageBytes; i < 6 * kPageBytes; ++i) bytes[i] = static_cast<char>(rng());
+  const std::string damaged = dir + "/damaged.db";
+  { std::ofstream(damaged, std::ios::binary) << bytes; }
+  const RunResult bad = run("map check " + damaged);
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
+  EXPECT_NE(bad.error.find("twocam map check: error: "), std::string::npos) << bad.error;
+  EXPECT_NE(bad.error.find(damaged), std::string::npos) << bad.error;
+  EXPECT_EQ(readFile(damaged), bytes);
+  { std::ofstream(dir + "/notes.txt") << "not a map\n"; }
+  const RunResult notes = run("map check " + dir + "/notes.txt");
+  EXPECT_EQ(notes.exit_code, 1);
+  EXPECT_NE(notes.error.find("notes.txt"), std::string::npos) << notes.error;
+  EXPECT_EQ(readFile(dir + "/notes.txt"), "not a map\n");
 }
 
 /// Every landmark of a map by id.
