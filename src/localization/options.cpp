@@ -75,8 +75,6 @@ Status PoseUpdateOptions::validate(const char* prefix) const {
   if (Status s = checkRange(p + "planar_sigma_rad", planar_sigma_rad, 1e-6, 3.0, "rad"); !s)
     return s;
   if (Status s = checkRange(p + "max_iterations", max_iterations, 1, 1000); !s) return s;
-  if (Status s = checkRange(p + "min_information_ratio", min_information_ratio, 0.0, 1e6); !s)
-    return s;
   if (max_observations != 0) {
     return checkRange(p + "max_observations", max_observations, min_landmarks, 1000000);
   }

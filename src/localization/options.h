@@ -45,16 +45,6 @@ struct PoseUpdateOptions {
   double planar_sigma_rad = 0.005;
   /// Gauss-Newton iterations of the Ceres solve [-].
   int max_iterations = 10;
-  /// A planar direction (x, y, yaw) of the correction is applied only where the frame's visual
-  /// information is at least this multiple of the prediction's [-] (generalized eigenvalues of
-  /// J^T J against P_pred^-1); in the others the pose and covariance stay the prediction's. The
-  /// map was placed with the estimate, so its error is shared by every landmark and every later
-  /// frame and is of the order of the estimate's covariance: where one frame's landmarks say
-  /// less than the prediction, repeated small updates integrate that shared error instead of
-  /// averaging it (one far pillar on lowtexture: heading +0.3 to +0.9 degree over 80 frames in
-  /// which odometry kept it). 1 = vision at least as informative as the prediction; 0 = every
-  /// direction, the update before 2026-12-05.
-  double min_information_ratio = 1.0;
   /// Most observations in the solve [-]: with more, an evenly strided subset of them in the
   /// database's order (deterministic); the solve's cost is linear in them. 0 = all, the
   /// default: 200 made the office localisation stage 2.5x faster (1.7 against 4.2 ms median)

@@ -3,7 +3,6 @@
 #include <ceres/ceres.h>
 #include <ceres/manifold.h>
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
@@ -276,42 +275,8 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   }
   Eigen::Matrix3d prior_cov = prediction.cov;
   prior_cov += Eigen::Vector3d(1e-6, 1e-6, 1e-6).asDiagonal();
-  // The correction direction by direction: in the basis V of the generalized eigenproblem
-  // info v = lambda P^-1 v (V^T P^-1 V = I, so P = V V^T) prior and vision are both diagonal,
-  // the posterior covariance is V diag(1 / (1 + lambda)) V^T and the correction's coordinates
-  // are c = V^T P^-1 delta. Directions with lambda below min_information_ratio keep the
-  // prediction (c = 0, variance as predicted).
-  const Eigen::Matrix3d prior_info = prior_cov.inverse();
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix3d> ges(info, prior_info);
-  if (ges.info() != Eigen::Success) return out;
-  const Eigen::Matrix3d& V = ges.eigenvectors();
-  const Eigen::Vector3d& lambda = ges.eigenvalues();
-  const Pose2 from = toPose2(prediction.T_w_b);
-  const Pose2 to = toPose2(T);
-  const Eigen::Vector3d delta(
-      to.x_m - from.x_m, to.y_m - from.y_m, wrapAngle(to.yaw_rad - from.yaw_rad));
-  const Eigen::Vector3d c = V.transpose() * prior_info * delta;
-  Eigen::Vector3d dropped = Eigen::Vector3d::Zero();
-  Eigen::Vector3d gain = Eigen::Vector3d::Zero();
-  int kept = 0;
-  for (int i = 0; i < 3; ++i) {
-    if (lambda[i] >= options.min_information_ratio) {
-      gain[i] = lambda[i];
-      ++kept;
-    } else {
-      dropped += c[i] * V.col(i);
-    }
-  }
-  if (kept == 0) {
-    out.inlier.assign(observations.size(), 0);
-    return out;
-  }
-  out.directions = kept;
-  out.estimate.T_w_b = kept == 3 ? T : perturb(T, -dropped);
-  out.estimate.cov =
-      kept == 3 ? Eigen::Matrix3d((prior_info + info).inverse())
-                : Eigen::Matrix3d(V * (Eigen::Vector3d::Ones() + gain).cwiseInverse().asDiagonal() *
-                                  V.transpose());
+  out.estimate.T_w_b = T;
+  out.estimate.cov = (prior_cov.inverse() + info).inverse();
   out.visual = true;
   return out;
 }

@@ -58,9 +58,6 @@ struct PoseUpdateResult {
   bool visual = false;
   int observations = 0;  ///< in front of the predicted camera, given to the solver
   int inliers = 0;       ///< squared normalised residual <= inlier_chi2 at the solution
-  /// Planar directions corrected (PoseUpdateOptions::min_information_ratio): 3 when vision
-  /// outweighs the prediction everywhere, 0 when not visual.
-  int directions = 0;
   /// Per observation of the input: inlier at the solution (false for those not used).
   std::vector<uint8_t> inlier;
 };

@@ -66,7 +66,7 @@ static_assert(
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<localization::PoseSearchOptions>() == 17,
               "PoseSearchOptions gained or lost a field: map it in visitLocalization (see above)");
-static_assert(fieldCount<localization::PoseUpdateOptions>() == 10,
+static_assert(fieldCount<localization::PoseUpdateOptions>() == 9,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<PipelineConfig>() == 5,
               "PipelineConfig gained or lost a field: map it in visitConfig (see above)");
@@ -368,9 +368,6 @@ void visitPoseUpdate(O& o, V& v) {
   TWOCAM_CONFIG_KEY(planar_sigma_m, "soft planar prior: height change per frame [m]");
   TWOCAM_CONFIG_KEY(planar_sigma_rad, "soft planar prior: roll and pitch change per frame [rad]");
   TWOCAM_CONFIG_KEY(max_iterations, "Gauss-Newton iterations of the solve [-]");
-  TWOCAM_CONFIG_KEY(min_information_ratio,
-                    "a planar direction is corrected only where the frame's visual information "
-                    "is at least this multiple of the prediction's [-]; 0 = every direction");
   TWOCAM_CONFIG_KEY(max_observations,
                     "most observations in the solve, an even subset [-]; 0 = all, else >= "
                     "min_landmarks");
