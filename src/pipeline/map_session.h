@@ -90,15 +90,12 @@ class MapSession {
   std::string rig_text_, config_text_, log_path_;
   std::unique_ptr<MapRecorder> recorder_;
   std::unique_ptr<MapRelocalizer> relocalizer_;
-<<<<<<< HEAD
   std::unique_ptr<WorkingSet> working_set_;
   std::vector<landmarks::Landmark> paged_out_;
   /// The last frame's body position in the run's world frame.
   std::optional<Eigen::Vector3d> robot_o_;
   int32_t last_frame_ = -1;
-=======
   MapCommitObserver on_commit_;
->>>>>>> crash
 };
 
 }  // namespace twocam::pipeline
