@@ -39,6 +39,8 @@ struct Landmark {
   int32_t first_frame = 0;
   int32_t confirmed_frame = -1;
   int32_t last_seen_frame = 0;
+  /// The last frame whose pose predicted it in view (seen or not); -1 never.
+  int32_t last_visible_frame = -1;
   int64_t first_t_ns = 0;
   /// Odometry path length and absolute turn (since the run started) when last seen [m], [rad].
   double path_at_last_seen_m = 0.0;

@@ -332,6 +332,7 @@ void LandmarkDatabase::predictAll(const Eigen::Isometry3d& T_cl_w,
     }
     Landmark& l = slots_[s];
     l.frames_out_of_view = 0;
+    l.last_visible_frame = frame_;
     ++l.n_visible;
     visible_[s] = 1;
     const MeasurementSigma sigma = predictionSigma(options_.tracker,

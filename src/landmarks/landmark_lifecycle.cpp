@@ -291,7 +291,7 @@ void LandmarkDatabase::restoreConfirmed(const std::vector<Eigen::Vector3d>& p_w,
     l.anchor.v_px = static_cast<float>(uvd.y());
     l.anchor.d_px = static_cast<float>(uvd.z());
     l.anchor.odom_pose = pose_;
-    l.first_frame = l.confirmed_frame = l.last_seen_frame = frame_;
+    l.first_frame = l.confirmed_frame = l.last_seen_frame = l.last_visible_frame = frame_;
     l.first_t_ns = t_ns_;
     l.path_at_last_seen_m = path_m_;
     l.turn_at_last_seen_rad = turn_rad_;

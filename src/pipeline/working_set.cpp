@@ -43,8 +43,10 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
   ++stats_.checks;
   const Eigen::Isometry3d& T_m_o = recorder->T_m_o();
   const Eigen::Vector3d robot_m = T_m_o * robot_o;
+  // Distance on the floor, in the maximum norm: the set is a square round the robot, so that
+  // what a check must look up in the store is the strip the square swept since the last one.
   const auto distance = [&](const Eigen::Vector3d& p_m) {
-    return std::hypot(p_m.x() - robot_m.x(), p_m.y() - robot_m.y());
+    return std::max(std::abs(p_m.x() - robot_m.x()), std::abs(p_m.y() - robot_m.y()));
   };
 
   // 1. Out: the map's landmarks in the tracker beyond the radius (plus hysteresis), then the
@@ -62,7 +64,8 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
     const uint64_t sid = recorder->storeIdOf(l.id);
     if (sid == 0) continue;  // not in the map (yet): never leaves
     held.insert(sid);
-    if (l.last_seen_frame > last_check_frame_) continue;  // seen since the last check: in view
+    // Predicted in view since the last check (seen or not): in view, stays.
+    if (std::max(l.last_seen_frame, l.last_visible_frame) > last_check_frame_) continue;
     const double d = distance(T_m_o * l.p_w);
     if (radius_m_ > 0.0 && d > radius_m_ + options_.hysteresis_m) {
       out.push_back(l.id);
@@ -107,14 +110,48 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
             ? options_.max_landmarks - static_cast<int64_t>(pipeline->database().numConfirmed())
             : std::numeric_limits<int64_t>::max();
     std::vector<store::StoredLandmark> rows;
-    const double big = 1e9;
     if (room > 0) {
-      if (Status s = recorder->store().queryBox(
-              Eigen::Vector3d(robot_m.x() - radius_m_, robot_m.y() - radius_m_, -big),
-              Eigen::Vector3d(robot_m.x() + radius_m_, robot_m.y() + radius_m_, big),
-              &rows);
-          !s)
-        return Status::error("working set: " + s.message());
+      // Every row in the square of the last complete check is held already (none of them left
+      // at this one: what leaves lies beyond radius + hysteresis): only the newly swept strips
+      // are read, or the whole square when there is no such check.
+      const double r = radius_m_;
+      const double big = 1e9;
+      std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> boxes;
+      const Eigen::Vector3d lo(robot_m.x() - r, robot_m.y() - r, -big);
+      const Eigen::Vector3d hi(robot_m.x() + r, robot_m.y() + r, big);
+      if (complete_ && complete_radius_m_ == r &&
+          std::abs(complete_center_m_.x() - robot_m.x()) < 2.0 * r &&
+          std::abs(complete_center_m_.y() - robot_m.y()) < 2.0 * r) {
+        const Eigen::Vector2d& o = complete_center_m_;
+        // x strip: the new square's columns outside the old one, over the new square's rows.
+        if (robot_m.x() > o.x()) {
+          boxes.emplace_back(Eigen::Vector3d(o.x() + r, lo.y(), -big), hi);
+        } else if (robot_m.x() < o.x()) {
+          boxes.emplace_back(lo, Eigen::Vector3d(o.x() - r, hi.y(), big));
+        }
+        // y strip: the rows outside the old square, over the columns both share.
+        const double x0 = std::max(lo.x(), o.x() - r);
+        const double x1 = std::min(hi.x(), o.x() + r);
+        if (robot_m.y() > o.y()) {
+          boxes.emplace_back(Eigen::Vector3d(x0, o.y() + r, -big),
+                             Eigen::Vector3d(x1, hi.y(), big));
+        } else if (robot_m.y() < o.y()) {
+          boxes.emplace_back(Eigen::Vector3d(x0, lo.y(), -big),
+                             Eigen::Vector3d(x1, o.y() - r, big));
+        }
+      } else {
+        boxes.emplace_back(lo, hi);
+      }
+      std::unordered_set<uint64_t> read;
+      for (const auto& [bmin, bmax] : boxes) {
+        std::vector<store::StoredLandmark> part;
+        if (Status s = recorder->store().queryBox(bmin, bmax, &part); !s)
+          return Status::error("working set: " + s.message());
+        for (store::StoredLandmark& row : part) {
+          if (read.insert(row.id).second) rows.push_back(std::move(row));
+        }
+      }
+      stats_.rows_read += static_cast<int64_t>(rows.size());
     }
     std::vector<std::pair<double, size_t>> order;
     for (size_t i = 0; i < rows.size(); ++i) {
@@ -122,6 +159,10 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
       if (d <= radius_m_ && held.count(rows[i].id) == 0) order.emplace_back(d, i);
     }
     const bool all_fit = static_cast<int64_t>(order.size()) <= room;
+    // Complete: every row within the square is now held (none left out by the cap).
+    complete_ = room > 0 && all_fit;
+    complete_center_m_ = robot_m.head<2>();
+    complete_radius_m_ = radius_m_;
     if (!all_fit) {
       std::sort(order.begin(), order.end());
       order.resize(static_cast<size_t>(room));

@@ -6,15 +6,18 @@
 /// landmark store) and come back from the store when the robot nears their place again, before
 /// they can be in view. Model and measurements: docs/store.md#working-set.
 ///
-/// The set is the confirmed landmarks within `radius_m` (horizontal distance from the robot in
-/// the map frame) and at most `max_landmarks` of them, the nearest. It is kept right after the
-/// map recorder commits (every MapRecorderOptions::frames_per_commit frames), so the store holds
-/// every row the tracker releases:
-///   1. out: the map's landmarks in the tracker that were not seen since the last check (so not
-///      in view) and lie farther than the radius plus `hysteresis_m` leave it; above the count
-///      cap the farthest of them leave until `kCapRefill` of the cap remain, and the radius
-///      shrinks to the farthest kept (a dense area keeps a smaller set round the robot). What is
-///      in view never leaves, so the cap is exceeded when the view alone holds more;
+/// The set is the confirmed landmarks within `radius_m` of the robot (on the floor, in the
+/// maximum norm: a square of half-side radius_m round it, in the map frame) and at most
+/// `max_landmarks` of them, the nearest. A check reads from the store only the strips the square
+/// swept since the last check that left every landmark of its square in the tracker. It is kept
+/// right after the map recorder commits (every MapRecorderOptions::frames_per_commit frames), so
+/// the store holds every row the tracker releases:
+///   1. out: the map's landmarks in the tracker that no frame since the last check predicted in
+///      view (landmarks::Landmark::last_visible_frame; seen or not) and lie farther than the radius
+///      plus `hysteresis_m` leave it; above the count cap the farthest of them leave until
+///      `kCapRefill` of the cap remain, and the radius shrinks to the farthest kept (a dense area
+///      keeps a smaller set round the robot). What is in view never leaves, so the cap is exceeded
+///      when the view alone holds more;
 ///   2. in: the store's landmarks within the radius that are not in the tracker join it
 ///      (landmarks::LandmarkDatabase::restoreConfirmed: their gates start from this frame), the
 ///      nearest first, up to the cap.
@@ -36,10 +39,10 @@ class MapRecorder;
 class Pipeline;
 
 struct WorkingSetOptions {
-  /// Confirmed landmarks within this horizontal distance of the robot stay in (or come back to)
-  /// the tracker [m]; 0: no radius. It must exceed the range at which landmarks are still
-  /// observed, plus the path between two commits: what is farther cannot be in view before the
-  /// next check.
+  /// Confirmed landmarks within this distance of the robot (on the floor, maximum norm) stay in
+  /// (or come back to) the tracker [m]; 0: no radius. It must exceed the range at which landmarks
+  /// are still observed, plus the path between two commits: what is farther cannot be in view
+  /// before the next check.
   double radius_m = 0.0;
   /// A landmark leaves only beyond radius_m + hysteresis_m [m], so that one at the border does
   /// not go out and in at every check.
@@ -57,6 +60,8 @@ struct WorkingSetStats {
   int64_t checks = 0;
   int64_t paged_out = 0;
   int64_t paged_in = 0;
+  /// Store rows the checks read (the strips the set swept).
+  int64_t rows_read = 0;
   /// Most confirmed landmarks in the tracker right after a check.
   int max_confirmed = 0;
   /// The radius in use after the last check [m] (shrunk by the cap; 0 = none yet).
@@ -93,6 +98,10 @@ class WorkingSet {
   double radius_m_ = 0.0;
   /// The frame of the last check: landmarks seen after it are in view and stay.
   int32_t last_check_frame_ = -1;
+  /// The last check left every row within its square held (no cap cut): its centre and radius.
+  bool complete_ = false;
+  Eigen::Vector2d complete_center_m_ = Eigen::Vector2d::Zero();
+  double complete_radius_m_ = 0.0;
 };
 
 }  // namespace twocam::pipeline
