@@ -68,6 +68,9 @@ class MapSession {
   }
 
   [[nodiscard]] const std::string& path() const { return path_; }
+  /// The recorder writing the map, nullptr before an extended map's run is placed and with
+  /// --localize-only.
+  [[nodiscard]] const MapRecorder* recorder() const { return recorder_.get(); }
   /// The relocalisation's report (--localize-only, or extending a map), nullptr otherwise.
   [[nodiscard]] const RelocalizationReport* relocalization() const;
   /// Extending a map that holds landmarks (not --localize-only).

@@ -17,7 +17,8 @@ bool finitePose(const Pose2& p) {
 
 }  // namespace
 
-Run::Run(const StereoRig& rig, const PipelineConfig& config) : pipe_(rig, config) {}
+Run::Run(const StereoRig& rig, const PipelineConfig& config, const RunOptions& options)
+    : pipe_(rig, config), options_(options) {}
 
 FrameSource frameSource(io::RawlogReader& reader) {
   return [&reader](io::LogFrame* frame, Status* status) { return reader.next(frame, status); };
@@ -85,12 +86,12 @@ Status Run::execute(const FrameSource& next,
     s.sum_corners += corners;
     s.sum_salient_points += static_cast<int64_t>(pipe_.hypotheses().points.size());
     s.sum_hypotheses += hypotheses;
-    if (s.odometry_mode) {
+    if (fo.slip_frame >= 0) s.slip_frames.push_back(fo.slip_frame);
+    if (s.odometry_mode && options_.keep_frame_records) {
       s.odom_track.push_back({frame.stereo.t_ns, toIsometry(frame.odometry->pose)});
       s.pose_track.push_back({frame.stereo.t_ns, toIsometry(fo.pose)});
       s.visual.push_back(fo.visual ? 1 : 0);
       s.landmarks_used.push_back(fo.landmarks_used);
-      if (fo.slip_frame >= 0) s.slip_frames.push_back(fo.slip_frame);
       s.search.push_back(fo.search_accepted ? 2 : (fo.searched ? 1 : 0));
     }
     if (callbacks.on_frame) {
@@ -100,6 +101,7 @@ Status Run::execute(const FrameSource& next,
     if (callbacks.between_frames) {
       if (Status cs = callbacks.between_frames(&pipe_); !cs) return cs;
     }
+    if (!options_.keep_frame_records) continue;
     s.records.push_back({frame.index,
                          fo.times,
                          corners,

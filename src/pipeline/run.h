@@ -59,6 +59,8 @@ struct RunSummary {
   int64_t sum_corners = 0;
   int64_t sum_salient_points = 0;
   int64_t sum_hypotheses = 0;
+  /// Per processed frame, unless RunOptions::keep_frame_records is false (then empty, as are
+  /// the other per-frame vectors below).
   std::vector<FrameRecord> records;
   /// Odometry pose of each processed frame (odometry mode) in the odometry world frame.
   std::vector<io::TimedPose> odom_track;
@@ -96,10 +98,17 @@ struct RunCallbacks {
 /// an error (io::RawlogReader::next).
 using FrameSource = std::function<bool(io::LogFrame*, Status*)>;
 
+struct RunOptions {
+  /// Keep the per-frame vectors of RunSummary (records, tracks, visual, landmarks_used, search;
+  /// evaluation and timings.csv read them). False for a run without end (a robot, the long-run
+  /// benchmark): the summary keeps its counts and sums only and memory does not grow per frame.
+  bool keep_frame_records = true;
+};
+
 class Run {
  public:
   /// `config` as for Pipeline (valid, fitted to the rig by clampToRig).
-  Run(const StereoRig& rig, const PipelineConfig& config);
+  Run(const StereoRig& rig, const PipelineConfig& config, const RunOptions& options = {});
 
   /// Runs the loop over `next` (at most max_frames frames when given). `source_name` (the log
   /// path) starts the errors about the stream as a whole. Errors: a read error, a frontend or
@@ -115,6 +124,7 @@ class Run {
 
  private:
   Pipeline pipe_;
+  RunOptions options_;
   RunSummary summary_;
 };
 

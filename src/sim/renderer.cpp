@@ -82,6 +82,9 @@ struct StereoRenderer::Impl {
   std::unique_ptr<mrpt::opengl::CFBORender> fbo;
   mrpt::opengl::COpenGLScene::Ptr scene;
   mrpt::img::CImage rgb;
+  /// The far clip distance in use [m] (0: not set yet); see setCamera.
+  double far_m = 0.0;
+  static constexpr double kFarGrowth = 1.25;
   mrpt::math::CMatrixFloat depth;
 
   void setCamera(const Eigen::Isometry3d& T_w_c) {
@@ -99,16 +102,24 @@ struct StereoRenderer::Impl {
     c.setProjectiveFromPinhole(cam);
     c.set6DOFMode(true);
     c.setPose(toMrptPose(T_w_c));
-    // Far clip from the world's extent seen from this camera; near from the options.
-    double far = 0.0;
+    // Far clip: beyond the world's farthest corner seen from this camera; near from the options.
+    // MRPT caches a depth-linearisation table (~1 MB) for every distinct (near, far) pair and
+    // never frees it, so the far clip takes few values: the world's diagonal plus the margin
+    // (enough from anywhere inside its bounding box), raised by kFarGrowth steps only when the
+    // camera is outside it. The depth buffer's precision is set by the near plane (z^2 / near),
+    // so a far clip beyond the need costs nothing measurable.
+    double need = 0.0;
     for (int k = 0; k < 8; ++k) {
       const Eigen::Vector3d corner = bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k));
-      far = std::max(far, (corner - T_w_c.translation()).norm());
+      need = std::max(need, (corner - T_w_c.translation()).norm());
     }
-    far += options.clip_far_margin_m;
-    scene->getViewport()->setViewportClipDistances(
-        static_cast<float>(options.clip_near_m),
-        static_cast<float>(std::max(far, options.clip_near_m * 2)));
+    need += options.clip_far_margin_m;
+    if (far_m <= 0.0)
+      far_m =
+          std::max(bounds.diagonal().norm() + options.clip_far_margin_m, options.clip_near_m * 2);
+    while (far_m < need) far_m *= kFarGrowth;
+    scene->getViewport()->setViewportClipDistances(static_cast<float>(options.clip_near_m),
+                                                   static_cast<float>(far_m));
   }
 
   void renderGrey(const Eigen::Isometry3d& T_w_c, ImageU8* grey, bool with_depth) {
@@ -245,6 +256,7 @@ void StereoRenderer::render(const Eigen::Isometry3d& T_w_cl,
   impl_->renderGrey(T_w_cl * rig.T_cl_cr(), right, false);
   impl_->renderGrey(T_w_cl, left, true);
   local.ms_render = t0.elapsedMs();
+  local.far_clip_m = impl_->far_m;
 
   const Timer t1;
   const int w = rig.width_px, h = rig.height_px;

@@ -24,8 +24,8 @@ struct RendererOptions {
   /// Near clip distance [m]; surfaces closer than this are not drawn. 0.1 m: the robot never
   /// gets that close to an obstacle, and a larger near plane means finer rendered depth.
   double clip_near_m = 0.1;
-  /// Margin added to the farthest corner of the world's bounding box when the far clip
-  /// distance is set for each frame [m].
+  /// Margin added to the world's bounding-box diagonal for the far clip distance [m] (the far
+  /// clip grows in steps when the camera leaves the box; renderer.cpp, setCamera).
   double clip_far_margin_m = 1.0;
   [[nodiscard]] Status validate() const;
 };
@@ -39,6 +39,9 @@ struct RenderStats {
   int pixels_unresolved = 0;
   double ms_render = 0.0;
   double ms_depth = 0.0;
+  /// The far clip distance of this render [m]: constant while the camera stays inside the
+  /// world's bounding box (MRPT keeps a table per distinct clip pair for the process's life).
+  double far_clip_m = 0.0;
 };
 
 /// Owns the EGL context, the scene and the facet list. Not thread-safe; one per thread.

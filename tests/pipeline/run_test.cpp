@@ -111,6 +111,23 @@ TEST(PipelineRun, SkipsFramesWithoutOdometryOrRefusedByTheDatabase) {
   EXPECT_GE(s.wall_ms, 0.0);
 }
 
+TEST(PipelineRun, WithoutFrameRecordsKeepsTheCountsOnly) {
+  Frames frames(6);
+  RunOptions options;
+  options.keep_frame_records = false;
+  pipeline::Run run(smallRig(), fittedConfig(), options);
+  Calls calls;
+  ASSERT_TRUE(run.execute(frames.source(), "t", std::nullopt, calls.callbacks()).isOk());
+  const RunSummary& s = run.summary();
+  EXPECT_EQ(s.processed, 6);
+  EXPECT_EQ(calls.frames_seen.size(), 6u) << "the callbacks still see every frame";
+  EXPECT_GT(s.sum_corners, 0);
+  EXPECT_TRUE(s.records.empty());
+  EXPECT_TRUE(s.odom_track.empty());
+  EXPECT_TRUE(s.pose_track.empty());
+  EXPECT_TRUE(s.landmarks_used.empty());
+}
+
 TEST(PipelineRun, ALogWithoutOdometryRunsTheFrontendOnly) {
   Frames frames(3, [](io::LogFrame* f) { f->odometry.reset(); });
   pipeline::Run run(smallRig(), fittedConfig());

@@ -230,6 +230,32 @@ TEST(StereoRenderer, SameInputSameImages) {
   EXPECT_EQ(d1.data, d2.data);
 }
 
+// MRPT keeps a depth table for every distinct clip pair for the life of the process (about
+// 1 MB each): a camera moving inside the world must render with one far clip, or a long
+// simulation grows by that much per frame.
+TEST(StereoRenderer, FarClipStaysConstantInsideTheWorld) {
+  const World world = makeWorld();
+  std::vector<TexturedMesh> meshes;
+  meshes.push_back(frontoParallelSquare({2.0, 0.0, 1.0}, 2.0, gaussianBlobTexture(64)));
+  auto renderer = makeRenderer(world, meshes);
+  ASSERT_TRUE(renderer);
+  ImageU8 l, r;
+  ImageF32 d;
+  RenderStats stats;
+  double first = -1.0;
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Vector3d p(-20.0 + 8.0 * k, 3.0 * (k % 3) - 3.0, 1.0);
+    renderer->render(cameraLookingAlongX(p), &l, &r, &d, &stats);
+    // Beyond the farthest corner of the world's box (60 m x 60 m plane) from any camera in it.
+    EXPECT_GT(stats.far_clip_m, std::hypot(60.0, 60.0) * 0.5);
+    if (k == 0) first = stats.far_clip_m;
+    EXPECT_EQ(stats.far_clip_m, first) << "camera at " << p.transpose();
+  }
+  // Far outside the box the clip grows to cover the world.
+  renderer->render(cameraLookingAlongX(Eigen::Vector3d(-200.0, 0.0, 1.0)), &l, &r, &d, &stats);
+  EXPECT_GT(stats.far_clip_m, 230.0);
+}
+
 TEST(Surfaces, RayHitsParallelogramAndTriangleInsideOnly) {
   Facet f;
   f.p0 = Eigen::Vector3d(2, -1, -1);
