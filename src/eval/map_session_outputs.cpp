@@ -89,6 +89,7 @@ void addMapSessionOutputs(const pipeline::MapSession& session,
     out->metrics["working_set"] = {{"checks", ws->checks},
                                    {"paged_out", ws->paged_out},
                                    {"paged_in", ws->paged_in},
+                                   {"ids_read", ws->ids_read},
                                    {"rows_read", ws->rows_read},
                                    {"max_confirmed", ws->max_confirmed},
                                    {"final_radius_m", ws->radius_m}};

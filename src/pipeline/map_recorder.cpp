@@ -328,7 +328,22 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
       --own_written_;
       const auto known = store_id_.find(id);
       batch_.removed.push_back(known != store_id_.end() ? known->second : id);
+    } else if (restored_.erase(id) > 0) {
+      // Its row keeps what was last written; the recorder forgets the tracker landmark, so that
+      // a long run's bookkeeping holds only live landmarks.
+      if (const auto known = store_id_.find(id); known != store_id_.end()) {
+        const uint64_t sid = known->second;
+        if (const auto seen = seen_as_.find(sid); seen != seen_as_.end()) {
+          std::vector<uint64_t>& tids = seen->second;
+          tids.erase(std::remove(tids.begin(), tids.end(), id), tids.end());
+          if (tids.empty()) {
+            seen_as_.erase(seen);
+            paged_base_.erase(sid);
+          }
+        }
+      }
     }
+    store_id_.erase(id);
   }
   if (++frames_in_batch_ >= options_.frames_per_commit) return flush();
   return Status::ok();

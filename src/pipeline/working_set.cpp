@@ -50,41 +50,50 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
   };
 
   // 1. Out: the map's landmarks in the tracker beyond the radius (plus hysteresis), then the
-  // farthest above the cap.
+  // farthest above the cap. The map lookup (storeIdOf) is made only for a landmark that may
+  // leave: the scan runs over the whole tracker at every check.
   struct Live {
     double distance_m;
     uint64_t tracker_id;
+    uint64_t store_id;
   };
-  std::vector<Live> stay;
+  const bool capped = options_.max_landmarks > 0;
+  std::vector<Live> stay;  // with a cap only: the map's landmarks that may leave by it
   std::vector<uint64_t> out;
-  std::unordered_set<uint64_t> held;  // store ids in the tracker, or leaving it now
+  std::unordered_set<uint64_t> held;  // store ids the tracker holds near the rows read, or leaving
   const landmarks::LandmarkDatabase& db = pipeline->database();
   for (const landmarks::Landmark& l : db.landmarks()) {
     if (l.state != landmarks::LandmarkState::kConfirmed) continue;
-    const uint64_t sid = recorder->storeIdOf(l.id);
-    if (sid == 0) continue;  // not in the map (yet): never leaves
-    held.insert(sid);
     // Predicted in view since the last check (seen or not): in view, stays.
     if (std::max(l.last_seen_frame, l.last_visible_frame) > last_check_frame_) continue;
     const double d = distance(T_m_o * l.p_w);
-    if (radius_m_ > 0.0 && d > radius_m_ + options_.hysteresis_m) {
+    const bool beyond = radius_m_ > 0.0 && d > radius_m_ + options_.hysteresis_m;
+    if (!beyond && !capped) continue;
+    const uint64_t sid = recorder->storeIdOf(l.id);
+    if (sid == 0) continue;  // not in the map (yet): never leaves
+    if (beyond) {
       out.push_back(l.id);
+      held.insert(sid);
     } else {
-      stay.push_back({d, l.id});
+      stay.push_back({d, l.id, sid});
     }
   }
   last_check_frame_ = frame;
+  stats_.scan_ms += timer.elapsedMs();
+  const Timer out_timer;
   // In the tracker and never leaving at this check: not in the map yet, or in view.
   const int unpaged = db.numConfirmed() - static_cast<int>(stay.size() + out.size());
-  if (options_.max_landmarks > 0 &&
-      static_cast<int64_t>(stay.size()) + unpaged > options_.max_landmarks) {
+  if (capped && static_cast<int64_t>(stay.size()) + unpaged > options_.max_landmarks) {
     const auto keep = static_cast<size_t>(std::max<int64_t>(
         0, static_cast<int64_t>(std::floor(kCapRefill * options_.max_landmarks)) - unpaged));
     std::sort(stay.begin(), stay.end(), [](const Live& a, const Live& b) {
       return a.distance_m < b.distance_m ||
              (a.distance_m == b.distance_m && a.tracker_id < b.tracker_id);
     });
-    for (size_t i = keep; i < stay.size(); ++i) out.push_back(stay[i].tracker_id);
+    for (size_t i = keep; i < stay.size(); ++i) {
+      out.push_back(stay[i].tracker_id);
+      held.insert(stay[i].store_id);
+    }
     // The set shrinks round the robot: what is kept is what lies within the new radius.
     radius_m_ = keep > 0 ? stay[keep - 1].distance_m : 0.0;
     stay.resize(std::min(keep, stay.size()));
@@ -101,6 +110,7 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
     }
     stats_.paged_out += left;
   }
+  stats_.out_ms += out_timer.elapsedMs();
 
   // 2. In: the store's landmarks within the radius that the tracker does not hold, nearest first,
   // up to the cap.
@@ -109,6 +119,7 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
         options_.max_landmarks > 0
             ? options_.max_landmarks - static_cast<int64_t>(pipeline->database().numConfirmed())
             : std::numeric_limits<int64_t>::max();
+    const Timer query_timer;
     std::vector<store::StoredLandmark> rows;
     if (room > 0) {
       // Every row in the square of the last complete check is held already (none of them left
@@ -142,17 +153,44 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
       } else {
         boxes.emplace_back(lo, hi);
       }
-      std::unordered_set<uint64_t> read;
+      // The index first (ids only), then the rows the tracker lacks: most of a strip is held.
+      std::vector<uint64_t> ids;
       for (const auto& [bmin, bmax] : boxes) {
-        std::vector<store::StoredLandmark> part;
-        if (Status s = recorder->store().queryBox(bmin, bmax, &part); !s)
+        std::vector<uint64_t> part;
+        if (Status s = recorder->store().queryBoxIds(bmin, bmax, &part); !s)
           return Status::error("working set: " + s.message());
-        for (store::StoredLandmark& row : part) {
-          if (read.insert(row.id).second) rows.push_back(std::move(row));
-        }
+        ids.insert(ids.end(), part.begin(), part.end());
       }
-      stats_.rows_read += static_cast<int64_t>(rows.size());
+      std::sort(ids.begin(), ids.end());
+      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+      stats_.ids_read += static_cast<int64_t>(ids.size());
+      // Which of them the tracker holds: the map's landmarks in the tracker within the boxes (a
+      // tracker landmark lies where its row does: the row is written from it, or it was paged in
+      // from the row; kHeldMarginM covers a landmark the tracker moved since).
+      if (!ids.empty()) {
+        const auto inBoxes = [&](const Eigen::Vector3d& p_m) {
+          for (const auto& [bmin, bmax] : boxes) {
+            if (p_m.x() >= bmin.x() - kHeldMarginM && p_m.x() <= bmax.x() + kHeldMarginM &&
+                p_m.y() >= bmin.y() - kHeldMarginM && p_m.y() <= bmax.y() + kHeldMarginM)
+              return true;
+          }
+          return false;
+        };
+        for (const landmarks::Landmark& l : pipeline->database().landmarks()) {
+          if (l.state != landmarks::LandmarkState::kConfirmed || !inBoxes(T_m_o * l.p_w)) continue;
+          if (const uint64_t sid = recorder->storeIdOf(l.id); sid != 0) held.insert(sid);
+        }
+        std::vector<uint64_t> lacking;
+        for (uint64_t id : ids) {
+          if (held.count(id) == 0) lacking.push_back(id);
+        }
+        if (Status s = recorder->store().loadByIds(lacking, &rows); !s)
+          return Status::error("working set: " + s.message());
+        stats_.rows_read += static_cast<int64_t>(rows.size());
+      }
     }
+    stats_.query_ms += query_timer.elapsedMs();
+    const Timer in_timer;
     std::vector<std::pair<double, size_t>> order;
     for (size_t i = 0; i < rows.size(); ++i) {
       const double d = distance(rows[i].p_m);
@@ -193,6 +231,7 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
       radius_m_ += options_.hysteresis_m;
       if (options_.radius_m > 0.0) radius_m_ = std::min(radius_m_, options_.radius_m);
     }
+    stats_.in_ms += in_timer.elapsedMs();
   }
   stats_.max_confirmed = std::max(stats_.max_confirmed, pipeline->database().numConfirmed());
   stats_.radius_m = radius_m_;

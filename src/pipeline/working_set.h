@@ -60,7 +60,9 @@ struct WorkingSetStats {
   int64_t checks = 0;
   int64_t paged_out = 0;
   int64_t paged_in = 0;
-  /// Store rows the checks read (the strips the set swept).
+  /// Index entries the checks read (the ids in the strips the set swept), and the rows among
+  /// them they read in full (those the tracker did not hold).
+  int64_t ids_read = 0;
   int64_t rows_read = 0;
   /// Most confirmed landmarks in the tracker right after a check.
   int max_confirmed = 0;
@@ -68,6 +70,12 @@ struct WorkingSetStats {
   double radius_m = 0.0;
   /// Wall time of each check (queries, releases, restores) [ms].
   std::vector<float> check_ms;
+  /// The checks' wall time by step, summed over the run [ms]: the scan of the tracker's
+  /// landmarks, paging out (recorder and tracker), reading the store, paging in.
+  double scan_ms = 0.0;
+  double out_ms = 0.0;
+  double query_ms = 0.0;
+  double in_ms = 0.0;
 };
 
 class WorkingSet {
@@ -75,6 +83,10 @@ class WorkingSet {
   /// Above the cap the farthest leave until this share of it remains [-], so that a full set
   /// is not trimmed at every check.
   static constexpr double kCapRefill = 0.9;
+  /// A tracker landmark within this distance of a box read from the store counts as holding its
+  /// row when the rows are matched to the tracker (its position may have moved since the row
+  /// was written or read) [m].
+  static constexpr double kHeldMarginM = 0.5;
 
   explicit WorkingSet(const WorkingSetOptions& options);
 

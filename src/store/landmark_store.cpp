@@ -482,6 +482,55 @@ Status LandmarkStore::queryBox(const Eigen::Vector3d& min_m,
   return Status::ok();
 }
 
+Status LandmarkStore::queryBoxIds(const Eigen::Vector3d& min_m,
+                                  const Eigen::Vector3d& max_m,
+                                  std::vector<uint64_t>* ids) const {
+  ids->clear();
+  if (!min_m.allFinite() || !max_m.allFinite()) {
+    return Status::error("map '" + path_ + "': query box with a non-finite corner");
+  }
+  SqliteStatement s;
+  if (Status st = s.prepare(impl_->db,
+                            "SELECT id FROM landmark_rtree WHERE max_x >= ?1 AND min_x <= ?2"
+                            " AND max_y >= ?3 AND min_y <= ?4 AND max_z >= ?5 AND min_z <= ?6");
+      !st) {
+    return st;
+  }
+  const double bounds[6] = {min_m.x(), max_m.x(), min_m.y(), max_m.y(), min_m.z(), max_m.z()};
+  for (int i = 0; i < 6; ++i) s.bindDouble(i + 1, bounds[i]);
+  SqliteStatement::StepResult r;
+  while ((r = s.step()) == SqliteStatement::StepResult::kRow)
+    ids->push_back(static_cast<uint64_t>(s.columnInt(0)));
+  if (r == SqliteStatement::StepResult::kError) return s.error("failed");
+  std::sort(ids->begin(), ids->end());
+  return Status::ok();
+}
+
+Status LandmarkStore::loadByIds(const std::vector<uint64_t>& ids,
+                                std::vector<StoredLandmark>* out) const {
+  out->clear();
+  if (ids.empty()) return Status::ok();
+  SqliteStatement s;
+  if (Status st = s.prepare(
+          impl_->db,
+          std::string("SELECT ") + kLandmarkColumns + " FROM landmarks AS l WHERE l.id = ?1");
+      !st) {
+    return st;
+  }
+  out->reserve(ids.size());
+  for (uint64_t id : ids) {
+    s.reset();
+    s.bindInt(1, static_cast<int64_t>(id));
+    const SqliteStatement::StepResult r = s.step();
+    if (r == SqliteStatement::StepResult::kError) return s.error("failed");
+    if (r != SqliteStatement::StepResult::kRow) {
+      return Status::error("map '" + path_ + "': no landmark " + std::to_string(id));
+    }
+    out->push_back(readLandmark(s));
+  }
+  return Status::ok();
+}
+
 Status LandmarkStore::queryRadius(const Eigen::Vector3d& center_m,
                                   double radius_m,
                                   std::vector<StoredLandmark>* out) const {

@@ -151,6 +151,15 @@ class LandmarkStore {
   [[nodiscard]] Status queryBox(const Eigen::Vector3d& min_m,
                                 const Eigen::Vector3d& max_m,
                                 std::vector<StoredLandmark>* out) const;
+  /// The ids of the R*Tree entries meeting the box, sorted: every landmark of queryBox's answer
+  /// and possibly some within a float rounding (~1e-7 relative) outside it, without reading the
+  /// rows (the working set asks which rows it lacks before it reads them).
+  [[nodiscard]] Status queryBoxIds(const Eigen::Vector3d& min_m,
+                                   const Eigen::Vector3d& max_m,
+                                   std::vector<uint64_t>* ids) const;
+  /// The rows of these ids, in their order. Error when one is not in the map.
+  [[nodiscard]] Status loadByIds(const std::vector<uint64_t>& ids,
+                                 std::vector<StoredLandmark>* out) const;
   /// Landmarks with |p_m - center_m| <= radius_m, sorted by id. Uses the R*Tree index.
   [[nodiscard]] Status queryRadius(const Eigen::Vector3d& center_m,
                                    double radius_m,

@@ -275,6 +275,10 @@ void BM_MapLongRun(benchmark::State& state, bool working_set) {
       if (Status f = session->finish(); !f) error = f.message();
     }
     const double final_file_mb = fileMegabytes(map_path);
+    std::vector<double> ws_steps;
+    if (const pipeline::WorkingSetStats* ws = session->workingSet()) {
+      ws_steps = {ws->scan_ms, ws->out_ms, ws->query_ms, ws->in_ms};
+    }
     session.reset();
     for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(map_path + suffix);
     if (!error.empty()) {
@@ -316,6 +320,12 @@ void BM_MapLongRun(benchmark::State& state, bool working_set) {
       state.counters["confirmations_lap2"] = laps[1].confirmations;
       state.counters["pos_rmse_m_lap2"] = laps[1].pos_rmse_m;
       state.counters["pos_rmse_m_last"] = last.pos_rmse_m;
+    }
+    if (!ws_steps.empty()) {
+      state.counters["paging_scan_ms_per_frame"] = ws_steps[0] / frames;
+      state.counters["paging_out_ms_per_frame"] = ws_steps[1] / frames;
+      state.counters["paging_query_ms_per_frame"] = ws_steps[2] / frames;
+      state.counters["paging_in_ms_per_frame"] = ws_steps[3] / frames;
     }
     state.counters["map_file_MB"] = final_file_mb;
     state.counters["frame_ms_median"] = median(frame_ms);

@@ -323,12 +323,33 @@ TEST(LandmarkStore, SpatialQueriesEqualBruteForce) {
     }
     ASSERT_TRUE(store->queryBox(lo, hi, &got).isOk());
     EXPECT_EQ(ids(got), want) << "box query " << q;
+    // The index alone: every id of the answer, and any other only within a float rounding of
+    // the box; the rows by id are the rows.
+    std::vector<uint64_t> index_ids;
+    ASSERT_TRUE(store->queryBoxIds(lo, hi, &index_ids).isOk());
+    EXPECT_TRUE(std::includes(index_ids.begin(), index_ids.end(), want.begin(), want.end()))
+        << "box ids " << q;
+    std::vector<StoredLandmark> by_id;
+    ASSERT_TRUE(store->loadByIds(index_ids, &by_id).isOk());
+    ASSERT_EQ(by_id.size(), index_ids.size());
+    for (const StoredLandmark& l : by_id) {
+      const Eigen::Array3d slack = 1e-6 * (1.0 + l.p_m.array().abs());
+      EXPECT_TRUE((l.p_m.array() >= lo.array() - slack).all() &&
+                  (l.p_m.array() <= hi.array() + slack).all())
+          << "box ids " << q << ": landmark " << l.id << " at " << l.p_m.transpose();
+      EXPECT_EQ(l.p_m, all[static_cast<size_t>(l.id - all.front().id)].p_m);
+    }
     if (on_point) {
       EXPECT_FALSE(want.empty());
     }
     total_found += want.size();
   }
   EXPECT_GT(total_found, static_cast<size_t>(kQueries) * 10);  // the queries are not all empty
+  // An id not in the map is an error naming it.
+  std::vector<StoredLandmark> none;
+  const Status missing = store->loadByIds({all[5].id, 999999}, &none);
+  EXPECT_FALSE(missing.isOk());
+  EXPECT_NE(missing.message().find("no landmark 999999"), std::string::npos) << missing.message();
   // A radius-0 query on a landmark finds exactly it.
   std::vector<StoredLandmark> got;
   ASSERT_TRUE(store->queryRadius(all[123].p_m, 0.0, &got).isOk());
