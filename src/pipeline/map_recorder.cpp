@@ -259,6 +259,7 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
         ++merged_;
       } else {
         sid = next_id_++;
+        own_tracker_of_.emplace(sid, id);
       }
       store_id_.emplace(id, sid);
     }
@@ -328,6 +329,7 @@ Status MapRecorder::addFrame(const RunFrame& frame) {
       --own_written_;
       const auto known = store_id_.find(id);
       batch_.removed.push_back(known != store_id_.end() ? known->second : id);
+      if (known != store_id_.end()) own_tracker_of_.erase(known->second);
     } else if (restored_.erase(id) > 0) {
       // Its row keeps what was last written; the recorder forgets the tracker landmark, so that
       // a long run's bookkeeping holds only live landmarks.
@@ -400,10 +402,32 @@ Status MapRecorder::pageOut(const landmarks::LandmarkDatabase& db,
       }
     }
     in_store_.erase(tid);
+    if (const auto own = own_tracker_of_.find(sid);
+        own != own_tracker_of_.end() && own->second == tid)
+      own_tracker_of_.erase(own);
     store_id_.erase(tid);
     descriptors_.erase(tid);
   }
   return Status::ok();
+}
+
+bool MapRecorder::trackerHolds(uint64_t sid, const landmarks::LandmarkDatabase& db) const {
+  const auto live = [&](uint64_t tid) {
+    const landmarks::Landmark* l = db.find(tid);
+    return l != nullptr && l->state == landmarks::LandmarkState::kConfirmed;
+  };
+  if (!extending_) {
+    if (in_store_.count(sid) > 0 && live(sid)) return true;  // its own, under its tracker id
+  } else if (const auto own = own_tracker_of_.find(sid);
+             own != own_tracker_of_.end() && live(own->second)) {
+    return true;
+  }
+  if (const auto seen = seen_as_.find(sid); seen != seen_as_.end()) {
+    for (uint64_t tid : seen->second) {
+      if (live(tid)) return true;
+    }
+  }
+  return false;
 }
 
 Status MapRecorder::adoptPagedIn(const std::vector<uint64_t>& tracker_ids,

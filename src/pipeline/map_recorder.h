@@ -131,6 +131,9 @@ class MapRecorder {
   /// The store id of a live tracker landmark whose row is in the map, or 0 (a candidate, or a
   /// landmark the run confirmed before it was placed in the map).
   [[nodiscard]] uint64_t storeIdOf(uint64_t tracker_id) const;
+  /// True when a live confirmed landmark of `db` (the run's tracker) is this map row: the
+  /// session's own under its id, or a restored, paged-in or merged one (storeIdOf's inverse).
+  [[nodiscard]] bool trackerHolds(uint64_t store_id, const landmarks::LandmarkDatabase& db) const;
   /// Before the tracker releases these landmarks (Pipeline::pageOutLandmarks; `db` still holds
   /// them): their rows stay in the map as last written, and the recorder forgets its state for
   /// them (a restored landmark's observations are folded into its row's base). Call only when
@@ -211,6 +214,9 @@ class MapRecorder {
   uint64_t next_id_ = 0;
   /// Tracker id -> store id: the session's new landmarks and the restored map landmarks.
   std::unordered_map<uint64_t, uint64_t> store_id_;
+  /// Extending: store id -> tracker id of the session's own new landmarks while the tracker
+  /// holds them (a new map's own landmarks keep their tracker id as store id).
+  std::unordered_map<uint64_t, uint64_t> own_tracker_of_;
   /// Tracker ids of restored map landmarks.
   std::unordered_set<uint64_t> restored_;
   /// The map's rows as the session found them, by store id (the base of an update).

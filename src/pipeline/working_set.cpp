@@ -60,7 +60,7 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
   const bool capped = options_.max_landmarks > 0;
   std::vector<Live> stay;  // with a cap only: the map's landmarks that may leave by it
   std::vector<uint64_t> out;
-  std::unordered_set<uint64_t> held;  // store ids the tracker holds near the rows read, or leaving
+  std::unordered_set<uint64_t> held;  // store ids leaving the tracker at this check
   const landmarks::LandmarkDatabase& db = pipeline->database();
   for (const landmarks::Landmark& l : db.landmarks()) {
     if (l.state != landmarks::LandmarkState::kConfirmed) continue;
@@ -164,25 +164,13 @@ Status WorkingSet::update(const Eigen::Vector3d& robot_o,
       std::sort(ids.begin(), ids.end());
       ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
       stats_.ids_read += static_cast<int64_t>(ids.size());
-      // Which of them the tracker holds: the map's landmarks in the tracker within the boxes (a
-      // tracker landmark lies where its row does: the row is written from it, or it was paged in
-      // from the row; kHeldMarginM covers a landmark the tracker moved since).
+      // Which of them the tracker holds (or lets go at this check): asked of the recorder per
+      // id, so the cost follows the strips, not the tracker's size.
       if (!ids.empty()) {
-        const auto inBoxes = [&](const Eigen::Vector3d& p_m) {
-          for (const auto& [bmin, bmax] : boxes) {
-            if (p_m.x() >= bmin.x() - kHeldMarginM && p_m.x() <= bmax.x() + kHeldMarginM &&
-                p_m.y() >= bmin.y() - kHeldMarginM && p_m.y() <= bmax.y() + kHeldMarginM)
-              return true;
-          }
-          return false;
-        };
-        for (const landmarks::Landmark& l : pipeline->database().landmarks()) {
-          if (l.state != landmarks::LandmarkState::kConfirmed || !inBoxes(T_m_o * l.p_w)) continue;
-          if (const uint64_t sid = recorder->storeIdOf(l.id); sid != 0) held.insert(sid);
-        }
         std::vector<uint64_t> lacking;
         for (uint64_t id : ids) {
-          if (held.count(id) == 0) lacking.push_back(id);
+          if (held.count(id) == 0 && !recorder->trackerHolds(id, pipeline->database()))
+            lacking.push_back(id);
         }
         if (Status s = recorder->store().loadByIds(lacking, &rows); !s)
           return Status::error("working set: " + s.message());

@@ -83,10 +83,6 @@ class WorkingSet {
   /// Above the cap the farthest leave until this share of it remains [-], so that a full set
   /// is not trimmed at every check.
   static constexpr double kCapRefill = 0.9;
-  /// A tracker landmark within this distance of a box read from the store counts as holding its
-  /// row when the rows are matched to the tracker (its position may have moved since the row
-  /// was written or read) [m].
-  static constexpr double kHeldMarginM = 0.5;
 
   explicit WorkingSet(const WorkingSetOptions& options);
 
