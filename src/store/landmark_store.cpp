@@ -53,6 +53,19 @@ constexpr const char* kLandmarkColumns =
     "l.id, l.x, l.y, l.z, l.cov, l.confidence, l.observations, l.session, l.first_seen_frame, "
     "l.last_seen_frame, l.first_seen_t_ns, l.last_seen_t_ns, l.descriptor_kind, l.descriptor";
 
+/// The R*Tree entries meeting the box ?1..?6 = min x, max x, min y, max y, min z, max z (table
+/// alias r).
+constexpr const char* kRtreeMeetsBox =
+    "r.max_x >= ?1 AND r.min_x <= ?2 AND r.max_y >= ?3 AND r.min_y <= ?4 AND r.max_z >= ?5 AND "
+    "r.min_z <= ?6";
+
+Status checkBox(const std::string& path,
+                const Eigen::Vector3d& min_m,
+                const Eigen::Vector3d& max_m) {
+  if (min_m.allFinite() && max_m.allFinite()) return Status::ok();
+  return Status::error("map '" + path + "': query box with a non-finite corner");
+}
+
 std::string utcNow() {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
@@ -455,17 +468,14 @@ Status LandmarkStore::queryBox(const Eigen::Vector3d& min_m,
                                const Eigen::Vector3d& max_m,
                                std::vector<StoredLandmark>* out) const {
   out->clear();
-  if (!min_m.allFinite() || !max_m.allFinite()) {
-    return Status::error("map '" + path_ + "': query box with a non-finite corner");
-  }
+  if (Status st = checkBox(path_, min_m, max_m); !st) return st;
   // The R*Tree holds 32-bit float boxes rounded outwards, so it returns a superset of the
   // answer; the exact test is on the double positions. CROSS JOIN keeps the R*Tree outermost.
   std::vector<StoredLandmark> candidates;
   if (Status st = impl_->selectLandmarks(
           std::string("SELECT ") + kLandmarkColumns +
-              " FROM landmark_rtree AS r CROSS JOIN landmarks AS l ON l.id = r.id"
-              " WHERE r.max_x >= ?1 AND r.min_x <= ?2 AND r.max_y >= ?3 AND r.min_y <= ?4"
-              " AND r.max_z >= ?5 AND r.min_z <= ?6",
+              " FROM landmark_rtree AS r CROSS JOIN landmarks AS l ON l.id = r.id WHERE " +
+              kRtreeMeetsBox,
           {min_m.x(), max_m.x(), min_m.y(), max_m.y(), min_m.z(), max_m.z()},
           &candidates);
       !st) {
@@ -486,13 +496,10 @@ Status LandmarkStore::queryBoxIds(const Eigen::Vector3d& min_m,
                                   const Eigen::Vector3d& max_m,
                                   std::vector<uint64_t>* ids) const {
   ids->clear();
-  if (!min_m.allFinite() || !max_m.allFinite()) {
-    return Status::error("map '" + path_ + "': query box with a non-finite corner");
-  }
+  if (Status st = checkBox(path_, min_m, max_m); !st) return st;
   SqliteStatement s;
-  if (Status st = s.prepare(impl_->db,
-                            "SELECT id FROM landmark_rtree WHERE max_x >= ?1 AND min_x <= ?2"
-                            " AND max_y >= ?3 AND min_y <= ?4 AND max_z >= ?5 AND min_z <= ?6");
+  if (Status st = s.prepare(
+          impl_->db, std::string("SELECT r.id FROM landmark_rtree AS r WHERE ") + kRtreeMeetsBox);
       !st) {
     return st;
   }
