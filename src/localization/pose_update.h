@@ -75,11 +75,15 @@ PoseUpdateResult updatePose(const StereoRig& rig,
 /// rounding (tests/localization/pose_update_test.cpp); the per-observation layout is kept as
 /// the reference of that test and of localization_bench.
 enum class StereoCostLayout {
-  kOneBlock,        ///< one cost function, 3 rows per observation, the loss applied inside
-  kPerObservation,  ///< one Ceres residual block per observation with Ceres' loss
+  /// Ceres' TinySolver (Levenberg-Marquardt for small dense problems) on the 6 tangent
+  /// parameters of TangentPose, the loss applied inside: no ceres::Problem to build, the normal
+  /// equations formed by one matrix product (docs/localization.md, "Speed").
+  kTinySolver,
+  kOneBlock,        ///< ceres::Problem, one cost function, 3 rows per observation, the loss inside
+  kPerObservation,  ///< ceres::Problem, one residual block per observation with Ceres' loss
 };
 
-/// updatePose with the stereo residuals laid out as `layout` (the overload above: kOneBlock).
+/// updatePose with the stereo residuals laid out as `layout` (the overload above: kTinySolver).
 PoseUpdateResult updatePose(const StereoRig& rig,
                             const PoseWithCovariance& prediction,
                             const std::vector<LandmarkObservation>& observations,
@@ -113,6 +117,26 @@ bool stereoResidualWithJacobians(const StereoResidual& f,
                                  double* residual,
                                  double* j_q,
                                  double* j_t);
+
+/// The TinySolver's pose parameters: x = (theta, dt) about a base pose (R_0, t_0), R = Exp(theta)
+/// R_0 (theta in world axes, so theta.z() turns the body about the world's vertical as a yaw
+/// change does) and t = t_0 + dt. Holds what every observation's residual at x shares.
+struct TangentPose {
+  /// R_cl_b: the rig's body-to-left-camera rotation (StereoResidual::R_cl_b).
+  TangentPose(const Eigen::Isometry3d& T_0,
+              const Eigen::Matrix<double, 6, 1>& x,
+              const Eigen::Matrix3d& R_cl_b);
+  Eigen::Isometry3d T_w_b;    ///< the pose at x
+  Eigen::Matrix3d B_cl_w;     ///< R_cl_b R^T: a world vector into the left camera
+  Eigen::Matrix3d right_jac;  ///< SO(3)'s right Jacobian at -theta
+};
+
+/// StereoResidual at a TangentPose with its Jacobian (3 x 6 row-major, columns theta then dt;
+/// null: none) with respect to x. False where operator() is false (behind the camera).
+bool stereoTangentResidual(const StereoResidual& f,
+                           const TangentPose& at,
+                           double* residual,
+                           double* jacobian);
 
 /// The prior's residual: planar part sqrt_info (x - x_p, y - y_p, yaw - yaw_p) in world axes,
 /// then (height change / planar_sigma_m, roll change / planar_sigma_rad, pitch change /

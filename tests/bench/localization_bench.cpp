@@ -73,7 +73,13 @@ void updatePoseBench(benchmark::State& state, twocam::localization::StereoCostLa
   state.counters["inliers"] = inliers;
 }
 
-/// The pose update as the pipeline runs it: the stereo residuals in one cost function.
+/// The pose update as the pipeline runs it: Ceres' TinySolver on the six tangent parameters.
+void BM_UpdatePoseTinySolver(benchmark::State& state) {
+  updatePoseBench(state, twocam::localization::StereoCostLayout::kTinySolver);
+}
+
+/// The same minimisation as a ceres::Problem with the stereo residuals in one cost function (the
+/// layout from 2026-12-05 to 2026-12-06).
 void BM_UpdatePoseCeres(benchmark::State& state) {
   updatePoseBench(state, twocam::localization::StereoCostLayout::kOneBlock);
 }
@@ -186,7 +192,18 @@ void BM_BFMatcherHammingOpenCV(benchmark::State& state) {
   }
 }
 
-BENCHMARK(BM_UpdatePoseCeres)->Arg(50)->Arg(150)->Arg(400)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_UpdatePoseTinySolver)
+    ->Arg(50)
+    ->Arg(150)
+    ->Arg(400)
+    ->Arg(1000)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_UpdatePoseCeres)
+    ->Arg(50)
+    ->Arg(150)
+    ->Arg(400)
+    ->Arg(1000)
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_UpdatePoseCeresPerObservation)
     ->Arg(50)
     ->Arg(150)
