@@ -526,6 +526,8 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
     if (distinct) rival_score = std::max(rival_score, s);
   }
   result.rival_score = rival_score;
+  result.best_score = std::max(0, best_score);
+  result.best_correction = best_correction;
   if (best_score >= o.min_matches && rival_score < o.ambiguity_ratio * best_score &&
       best_score >= o.win_ratio * std::max(1, local_score) &&
       best_score >= o.accept_fraction * result.reference) {

@@ -43,6 +43,10 @@ struct PoseSearchResult {
   bool accepted = false;     ///< the search found a pose that explains decisively more
   int score = 0;             ///< matches at the accepted pose (0 when not accepted)
   int rival_score = 0;       ///< best score of the searched poses distinct from the winner
+  /// Searched (accepted or not): the most matches of a searched pose, and its correction (the
+  /// winner the acceptance tests judged).
+  int best_score = 0;
+  Pose2 best_correction;
   /// Planar pose error found, in the predicted body frame: T_w_b = T_w_b_pred * correction.
   Pose2 correction;
   Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();  ///< the pose to predict with

@@ -151,6 +151,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     // used, a pose found from the frame's hypotheses replaces it.
     out->searched = out->search_accepted = false;
     out->search_reference = out->search_prediction_score = 0;
+    out->search_best_score = out->search_rival_score = 0;
+    out->search_correction = Pose2{};
     const Timer ts;
     if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled && has_estimate_) {
       reference_w_.clear();
@@ -165,6 +167,9 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       out->search_prediction_score = sr.prediction_score;
       out->searched = sr.searched;
       out->search_accepted = sr.accepted;
+      out->search_best_score = sr.best_score;
+      out->search_rival_score = sr.rival_score;
+      out->search_correction = sr.best_correction;
       prediction.T_w_b = sr.T_w_b;
     }
     search_ms = ts.elapsedMs();

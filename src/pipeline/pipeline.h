@@ -61,6 +61,11 @@ struct FrameOutput {
   int search_prediction_score = 0;
   bool searched = false;
   bool search_accepted = false;
+  /// Searched: the best searched pose's matches, the best distinct rival's, and its correction
+  /// of the prediction (PoseSearchResult::best_score, rival_score, best_correction).
+  int search_best_score = 0;
+  int search_rival_score = 0;
+  Pose2 search_correction;
   /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
   /// was not mapped (landmarks were still updated).
   bool outside_map = false;

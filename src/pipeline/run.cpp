@@ -93,6 +93,11 @@ Status Run::execute(const FrameSource& next,
       s.visual.push_back(fo.visual ? 1 : 0);
       s.landmarks_used.push_back(fo.landmarks_used);
       s.search.push_back(fo.search_accepted ? 2 : (fo.searched ? 1 : 0));
+      s.search_figures.push_back({fo.search_reference,
+                                  fo.search_prediction_score,
+                                  fo.search_best_score,
+                                  fo.search_rival_score,
+                                  fo.search_correction});
     }
     if (callbacks.on_frame) {
       if (Status cs = callbacks.on_frame(RunFrame{frame, fo, pipe_, s.odometry_mode}); !cs)

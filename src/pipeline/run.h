@@ -76,6 +76,15 @@ struct RunSummary {
   /// search_accepted): 0 the prediction held (or no check), 1 searched, 2 the searched pose
   /// replaced the prediction.
   std::vector<uint8_t> search;
+  /// Per processed frame (odometry mode): the slip search's figures (FrameOutput::search_*).
+  struct SearchFigures {
+    int reference = 0;
+    int prediction_score = 0;
+    int best_score = 0;
+    int rival_score = 0;
+    Pose2 correction;
+  };
+  std::vector<SearchFigures> search_figures;
   /// Time stamp of the first frame read [ns] (the simulator's time 0).
   int64_t first_t_ns = 0;
   /// Wall time of the whole loop, reading and callbacks included [ms].
