@@ -135,6 +135,26 @@ class StereoBatchCost final : public ceres::CostFunction {
   const ceres::LossFunction* loss_ = nullptr;
 };
 
+/// The normalised stereo residual of a point p_c in the left camera (false behind it) and, when
+/// J_r is given, its Jacobian with respect to p_c.
+bool cameraResidual(const StereoResidual& f,
+                    const Eigen::Vector3d& p_c,
+                    double* residual,
+                    Eigen::Matrix3d* J_r) {
+  if (!(p_c.z() > 1e-3)) return false;
+  const double inv_z = 1.0 / p_c.z();
+  residual[0] = (f.cx + f.fx * p_c.x() * inv_z - f.u) * f.inv_sigma_px;
+  residual[1] = (f.cy + f.fy * p_c.y() * inv_z - f.v) * f.inv_sigma_px;
+  residual[2] = (f.fb * inv_z - f.d) * f.inv_sigma_d;
+  if (J_r != nullptr) {
+    *J_r << f.fx * inv_z * f.inv_sigma_px, 0.0,
+        -f.fx * p_c.x() * inv_z * inv_z * f.inv_sigma_px,                                      //
+        0.0, f.fy * inv_z * f.inv_sigma_px, -f.fy * p_c.y() * inv_z * inv_z * f.inv_sigma_px,  //
+        0.0, 0.0, -f.fb * inv_z * inv_z * f.inv_sigma_d;
+  }
+  return true;
+}
+
 Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
   m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
@@ -336,17 +356,10 @@ bool stereoResidualWithJacobians(const StereoResidual& f,
   const Eigen::Vector3d axv = a.cross(v);
   const Eigen::Vector3d p_b = v + 2.0 * w * axv + 2.0 * a.cross(axv);
   const Eigen::Vector3d p_c = f.R_cl_b * p_b + f.t_cl_b;
-  if (!(p_c.z() > 1e-3)) return false;
-  const double inv_z = 1.0 / p_c.z();
-  residual[0] = (f.cx + f.fx * p_c.x() * inv_z - f.u) * f.inv_sigma_px;
-  residual[1] = (f.cy + f.fy * p_c.y() * inv_z - f.v) * f.inv_sigma_px;
-  residual[2] = (f.fb * inv_z - f.d) * f.inv_sigma_d;
-  if (j_q == nullptr && j_t == nullptr) return true;
-  // d residual / d p_c.
-  Eigen::Matrix3d J_r;
-  J_r << f.fx * inv_z * f.inv_sigma_px, 0.0, -f.fx * p_c.x() * inv_z * inv_z * f.inv_sigma_px,  //
-      0.0, f.fy * inv_z * f.inv_sigma_px, -f.fy * p_c.y() * inv_z * inv_z * f.inv_sigma_px,     //
-      0.0, 0.0, -f.fb * inv_z * inv_z * f.inv_sigma_d;
+  Eigen::Matrix3d J_r;  // d residual / d p_c
+  const bool want_jacobian = j_q != nullptr || j_t != nullptr;
+  if (!cameraResidual(f, p_c, residual, want_jacobian ? &J_r : nullptr)) return false;
+  if (!want_jacobian) return true;
   const Eigen::Matrix3d J_rb = J_r * f.R_cl_b;  // d residual / d p_b
   if (j_q != nullptr) {
     // d p_b / d a = -2 w [v]x + 2 ((a.v) I + a v^T - 2 v a^T), and d a / d u = -I;
@@ -403,16 +416,9 @@ bool stereoTangentResidual(const StereoResidual& f,
   // Jr(-theta) (Exp(phi + e) = Exp(phi) Exp(Jr(phi) e)), and d y / d dt = -I.
   const Eigen::Vector3d y = f.p_w - at.T_w_b.translation();
   const Eigen::Vector3d p_c = at.B_cl_w * y + f.t_cl_b;
-  if (!(p_c.z() > 1e-3)) return false;
-  const double inv_z = 1.0 / p_c.z();
-  residual[0] = (f.cx + f.fx * p_c.x() * inv_z - f.u) * f.inv_sigma_px;
-  residual[1] = (f.cy + f.fy * p_c.y() * inv_z - f.v) * f.inv_sigma_px;
-  residual[2] = (f.fb * inv_z - f.d) * f.inv_sigma_d;
-  if (jacobian == nullptr) return true;
   Eigen::Matrix3d J_r;  // d residual / d p_c
-  J_r << f.fx * inv_z * f.inv_sigma_px, 0.0, -f.fx * p_c.x() * inv_z * inv_z * f.inv_sigma_px,  //
-      0.0, f.fy * inv_z * f.inv_sigma_px, -f.fy * p_c.y() * inv_z * inv_z * f.inv_sigma_px,     //
-      0.0, 0.0, -f.fb * inv_z * inv_z * f.inv_sigma_d;
+  if (!cameraResidual(f, p_c, residual, jacobian != nullptr ? &J_r : nullptr)) return false;
+  if (jacobian == nullptr) return true;
   const Eigen::Matrix3d D = J_r * at.B_cl_w;  // d residual / d y
   Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> J(jacobian);
   J.leftCols<3>() = D * skew(y) * at.right_jac;

@@ -218,20 +218,29 @@ TEST(PoseUpdate, RecoversTheTruePoseFromAWrongPredictionDespiteOutliers) {
   EXPECT_GT(slipChi2(start, r.estimate, odo, odo_cov), SlipTestOptions{}.chi2);
 }
 
-TEST(PoseUpdate, OneBlockLayoutSolvesAsThePerObservationBlocksDo) {
-  // The one cost function with the loss applied inside (StereoCostLayout::kOneBlock) against one
-  // Ceres residual block per observation with Ceres' own Huber, then Cauchy, loss: both are the
-  // same minimisation, so they differ by rounding only. Seeded scenes from 12 to 400
-  // observations, 0 to 30 % outliers, predictions from exact to a slip's 8 cm and 3 degrees.
+/// What compareLayouts found over its scenes.
+struct LayoutComparison {
+  double worst_position_m = 0.0;
+  double worst_angle_rad = 0.0;
+  int visual = 0;              // scenes both solved visually
+  int inlier_differences = 0;  // inlier flags that differ, over every scene
+};
+
+/// Solves the same 36 seeded scenes (12 to 400 observations, 0 to 30 % outliers, predictions
+/// from exact to a slip's 8 cm and 3 degrees) with two layouts and expects the poses within the
+/// tolerances and the covariances relatively within cov_rel_tol.
+LayoutComparison compareLayouts(StereoCostLayout first,
+                                StereoCostLayout second,
+                                double position_tol_m,
+                                double angle_tol_rad,
+                                double cov_rel_tol) {
   const StereoRig rig = SyntheticStream::defaultRig();
   std::mt19937_64 rng(kSeed + 4);
   std::uniform_real_distribution<double> off(-1.0, 1.0);
   const int sizes[] = {12, 40, 150, 400};
   const double outlier_shares[] = {0.0, 0.1, 0.3};
   const double offsets[] = {0.0, 0.02, 0.08};  // prediction error [m]; yaw error offset * 40 deg
-  double worst_position_m = 0.0;
-  double worst_angle_rad = 0.0;
-  int visual = 0;
+  LayoutComparison out;
   for (int n : sizes) {
     for (double share : outlier_shares) {
       for (double offset : offsets) {
@@ -243,82 +252,60 @@ TEST(PoseUpdate, OneBlockLayoutSolvesAsThePerObservationBlocksDo) {
             pose(offset * off(rng), offset * off(rng), offset * 40.0 * M_PI / 180.0 * off(rng));
         prediction.cov = Eigen::Vector3d(2.5e-3, 2.5e-3, 1.2e-3).asDiagonal();
         const PoseUpdateOptions o;
-        const PoseUpdateResult a = updatePose(rig, prediction, obs, o, StereoCostLayout::kOneBlock);
-        const PoseUpdateResult b =
-            updatePose(rig, prediction, obs, o, StereoCostLayout::kPerObservation);
-        ASSERT_EQ(a.visual, b.visual) << n << " " << share << " " << offset;
-        visual += a.visual ? 1 : 0;
-        EXPECT_EQ(a.inlier, b.inlier) << n << " " << share << " " << offset;
+        const PoseUpdateResult a = updatePose(rig, prediction, obs, o, first);
+        const PoseUpdateResult b = updatePose(rig, prediction, obs, o, second);
+        EXPECT_EQ(a.visual, b.visual) << n << " " << share << " " << offset;
+        if (a.visual != b.visual) continue;
+        out.visual += a.visual ? 1 : 0;
+        for (size_t i = 0; i < a.inlier.size(); ++i)
+          out.inlier_differences += a.inlier[i] != b.inlier[i];
         const double dt = (a.estimate.T_w_b.translation() - b.estimate.T_w_b.translation()).norm();
         const double da =
             Eigen::AngleAxisd(a.estimate.T_w_b.linear().transpose() * b.estimate.T_w_b.linear())
                 .angle();
-        worst_position_m = std::max(worst_position_m, dt);
-        worst_angle_rad = std::max(worst_angle_rad, da);
-        EXPECT_LT(dt, kLayoutPositionTolM) << n << " " << share << " " << offset;
-        EXPECT_LT(da, kLayoutAngleTolRad) << n << " " << share << " " << offset;
-        EXPECT_TRUE(a.estimate.cov.isApprox(b.estimate.cov, kLayoutCovarianceRelTol))
+        out.worst_position_m = std::max(out.worst_position_m, dt);
+        out.worst_angle_rad = std::max(out.worst_angle_rad, da);
+        EXPECT_LT(dt, position_tol_m) << n << " " << share << " " << offset;
+        EXPECT_LT(da, angle_tol_rad) << n << " " << share << " " << offset;
+        EXPECT_TRUE(a.estimate.cov.isApprox(b.estimate.cov, cov_rel_tol))
             << n << " " << share << " " << offset;
       }
     }
   }
-  EXPECT_GE(visual, 30);  // nearly every scene is solved: the comparison is not vacuous
-  std::cout << "one block vs per observation: worst position " << worst_position_m
-            << " m, worst angle " << worst_angle_rad << " rad\n";
+  return out;
+}
+
+TEST(PoseUpdate, OneBlockLayoutSolvesAsThePerObservationBlocksDo) {
+  // The one cost function with the loss applied inside (StereoCostLayout::kOneBlock) against one
+  // Ceres residual block per observation with Ceres' own Huber, then Cauchy, loss: both are the
+  // same minimisation, so they differ by rounding only.
+  const LayoutComparison c = compareLayouts(StereoCostLayout::kOneBlock,
+                                            StereoCostLayout::kPerObservation,
+                                            kLayoutPositionTolM,
+                                            kLayoutAngleTolRad,
+                                            kLayoutCovarianceRelTol);
+  EXPECT_GE(c.visual, 30);  // nearly every scene is solved: the comparison is not vacuous
+  EXPECT_EQ(c.inlier_differences, 0);
+  std::cout << "one block vs per observation: worst position " << c.worst_position_m
+            << " m, worst angle " << c.worst_angle_rad << " rad\n";
 }
 
 TEST(PoseUpdate, TinySolverFindsTheMinimumOfTheCeresProblem) {
   // The default solve (StereoCostLayout::kTinySolver: TinySolver on the tangent parameters)
-  // against the per-observation ceres::Problem, on the scenes of the test above. Two
-  // Levenberg-Marquardt implementations stopping at a relative cost change of 1e-6, with priors
-  // that differ at third order in the rotation change (a rotation vector against twice a
-  // quaternion's vector part), so they agree to within the stopping tolerance.
-  const StereoRig rig = SyntheticStream::defaultRig();
-  std::mt19937_64 rng(kSeed + 4);
-  std::uniform_real_distribution<double> off(-1.0, 1.0);
-  const int sizes[] = {12, 40, 150, 400};
-  const double outlier_shares[] = {0.0, 0.1, 0.3};
-  const double offsets[] = {0.0, 0.02, 0.08};
-  double worst_position_m = 0.0;
-  double worst_angle_rad = 0.0;
-  int visual = 0;
-  int inlier_differences = 0;
-  for (int n : sizes) {
-    for (double share : outlier_shares) {
-      for (double offset : offsets) {
-        const Eigen::Isometry3d T_true = pose(off(rng), off(rng), M_PI * off(rng));
-        const auto obs = observe(rig, T_true, n, 0.3, share, &rng);
-        PoseWithCovariance prediction;
-        prediction.T_w_b =
-            T_true *
-            pose(offset * off(rng), offset * off(rng), offset * 40.0 * M_PI / 180.0 * off(rng));
-        prediction.cov = Eigen::Vector3d(2.5e-3, 2.5e-3, 1.2e-3).asDiagonal();
-        const PoseUpdateOptions o;
-        const PoseUpdateResult a = updatePose(rig, prediction, obs, o);
-        const PoseUpdateResult b =
-            updatePose(rig, prediction, obs, o, StereoCostLayout::kPerObservation);
-        ASSERT_EQ(a.visual, b.visual) << n << " " << share << " " << offset;
-        visual += a.visual ? 1 : 0;
-        for (size_t i = 0; i < a.inlier.size(); ++i)
-          inlier_differences += a.inlier[i] != b.inlier[i];
-        const double dt = (a.estimate.T_w_b.translation() - b.estimate.T_w_b.translation()).norm();
-        const double da =
-            Eigen::AngleAxisd(a.estimate.T_w_b.linear().transpose() * b.estimate.T_w_b.linear())
-                .angle();
-        worst_position_m = std::max(worst_position_m, dt);
-        worst_angle_rad = std::max(worst_angle_rad, da);
-        EXPECT_LT(dt, kSolverPositionTolM) << n << " " << share << " " << offset;
-        EXPECT_LT(da, kSolverAngleTolRad) << n << " " << share << " " << offset;
-        EXPECT_TRUE(a.estimate.cov.isApprox(b.estimate.cov, kSolverCovarianceRelTol))
-            << n << " " << share << " " << offset;
-      }
-    }
-  }
-  EXPECT_GE(visual, 30);
-  EXPECT_LE(inlier_differences, kSolverInlierDifferences);
-  std::cout << "TinySolver vs per-observation Problem: worst position " << worst_position_m
-            << " m, worst angle " << worst_angle_rad << " rad, inlier flags differing "
-            << inlier_differences << "\n";
+  // against the per-observation ceres::Problem. Two Levenberg-Marquardt implementations stopping
+  // at a relative cost change of 1e-6, with priors that differ at third order in the rotation
+  // change (a rotation vector against twice a quaternion's vector part), so they agree to within
+  // the stopping tolerance.
+  const LayoutComparison c = compareLayouts(StereoCostLayout::kTinySolver,
+                                            StereoCostLayout::kPerObservation,
+                                            kSolverPositionTolM,
+                                            kSolverAngleTolRad,
+                                            kSolverCovarianceRelTol);
+  EXPECT_GE(c.visual, 30);
+  EXPECT_LE(c.inlier_differences, kSolverInlierDifferences);
+  std::cout << "TinySolver vs per-observation Problem: worst position " << c.worst_position_m
+            << " m, worst angle " << c.worst_angle_rad << " rad, inlier flags differing "
+            << c.inlier_differences << "\n";
 }
 
 TEST(PoseUpdate, TooFewLandmarksKeepThePrediction) {
