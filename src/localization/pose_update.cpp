@@ -227,6 +227,8 @@ class TinyPoseProblem {
       const int row = kPriorRows + 3 * static_cast<int>(k);
       double* r = residuals + row;
       if (!stereoTangentResidual(residuals_[k], at, r, jacobian != nullptr ? J.data() : nullptr)) {
+        // Rows not yet written are zeroed so that the cost is exactly infinite (not NaN).
+        std::fill(residuals + row, residuals + rows - 1, 0.0);
         residuals[rows - 1] = std::numeric_limits<double>::infinity();
         return true;
       }

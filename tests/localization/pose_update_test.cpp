@@ -308,6 +308,39 @@ TEST(PoseUpdate, TinySolverFindsTheMinimumOfTheCeresProblem) {
             << c.inlier_differences << "\n";
 }
 
+TEST(PoseUpdate, AStepThatPutsALandmarkBehindTheCameraIsRejected) {
+  // A wrong association 5 mm in front of the predicted camera, which stands 3 cm behind the true
+  // pose: every step towards the truth puts that landmark behind the camera. The solver must
+  // reject such steps (an infinite cost, not NaN) as Ceres rejects a failed evaluation: the pose
+  // stays finite, the landmark stays in front of it, and TinySolver ends where ceres::Problem
+  // does.
+  const StereoRig rig = SyntheticStream::defaultRig();
+  std::mt19937_64 rng(kSeed + 6);
+  const Eigen::Isometry3d T_true = pose(1.0, 0.5, 0.3);
+  auto obs = observe(rig, T_true, 80, 0.3, 0.0, &rng);
+  PoseWithCovariance prediction;
+  prediction.T_w_b = T_true * pose(-0.03, 0.0, 0.0);
+  prediction.cov = Eigen::Vector3d(2.5e-3, 2.5e-3, 1.2e-3).asDiagonal();
+  LandmarkObservation near;
+  near.id = 999;
+  near.p_w = prediction.T_w_b * rig.T_b_cl * Eigen::Vector3d(0.0, 0.0, 0.005);
+  near.u_px = rig.cx_px;
+  near.v_px = rig.cy_px;
+  near.d_px = 30.0;
+  obs.push_back(near);
+  const PoseUpdateResult tiny =
+      updatePose(rig, prediction, obs, PoseUpdateOptions{}, StereoCostLayout::kTinySolver);
+  const PoseUpdateResult problem =
+      updatePose(rig, prediction, obs, PoseUpdateOptions{}, StereoCostLayout::kOneBlock);
+  for (const PoseUpdateResult* r : {&tiny, &problem}) {
+    EXPECT_TRUE(r->estimate.T_w_b.matrix().allFinite());
+    EXPECT_TRUE(r->estimate.cov.allFinite());
+    EXPECT_GT(((r->estimate.T_w_b * rig.T_b_cl).inverse() * near.p_w).z(), 0.0);
+  }
+  EXPECT_LT((tiny.estimate.T_w_b.translation() - problem.estimate.T_w_b.translation()).norm(),
+            kSolverPositionTolM);
+}
+
 TEST(PoseUpdate, TooFewLandmarksKeepThePrediction) {
   const StereoRig rig = SyntheticStream::defaultRig();
   std::mt19937_64 rng(kSeed + 2);
