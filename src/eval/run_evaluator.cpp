@@ -166,7 +166,8 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
   csv << std::setprecision(9)
       << "frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m,searched,"
          "search_accepted,search_reference,search_prediction_score,search_best_score,"
-         "search_rival_score,search_dx_m,search_dy_m,search_dyaw_deg\n";
+         "search_rival_score,search_dx_m,search_dy_m,search_dyaw_deg,reanchor_reference,"
+         "reanchored\n";
   size_t next_flag = 0;
   for (size_t i = 0; i < s.pose_track.size() && i < s.records.size(); ++i) {
     const int32_t frame = s.records[i].frame;
@@ -192,10 +193,11 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
     csv << ',' << f.reference << ',' << f.prediction_score;
     if (search >= 1) {
       csv << ',' << f.best_score << ',' << f.rival_score << ',' << f.correction.x_m << ','
-          << f.correction.y_m << ',' << f.correction.yaw_rad * 180.0 / M_PI << '\n';
+          << f.correction.y_m << ',' << f.correction.yaw_rad * 180.0 / M_PI;
     } else {
-      csv << ",,,,,\n";
+      csv << ",,,,,";
     }
+    csv << ',' << f.reanchor_reference << ',' << (f.reanchored ? 1 : 0) << '\n';
   }
   return csv.str();
 }

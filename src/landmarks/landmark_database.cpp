@@ -235,6 +235,17 @@ Status LandmarkDatabase::correctFramePose(const Pose2& pose,
   return Status::ok();
 }
 
+void LandmarkDatabase::unassociatedConfirmedInView(int32_t seen_before,
+                                                   std::vector<uint64_t>* ids) const {
+  TWOCAM_CHECK(frame_hyps_ != nullptr) << "unassociatedConfirmedInView outside a frame";
+  for (const Prediction& p : predictions_) {
+    if (!p.confirmed || associated_[p.slot]) continue;
+    const Landmark& l = slots_[p.slot];
+    if (l.state == LandmarkState::kConfirmed && l.last_seen_frame < seen_before)
+      ids->push_back(l.id);
+  }
+}
+
 void LandmarkDatabase::reassociateConfirmed(const OdometryErrorSigma& sigma) {
   const StereoHypotheses& hyps = *frame_hyps_;
   FrameReport* report = frame_report_;

@@ -183,6 +183,11 @@ class LandmarkDatabase final : public AnchorPoses {
   /// Returns how many left.
   int pageOut(const std::vector<uint64_t>& ids);
 
+  /// Between beginFrame() and finishFrame(): appends to *ids the confirmed landmarks that this
+  /// frame's pose predicted in view, that no pass associated, and that were last seen before
+  /// frame `seen_before` (in prediction order).
+  void unassociatedConfirmedInView(int32_t seen_before, std::vector<uint64_t>* ids) const;
+
   /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
   [[nodiscard]] const Landmark* find(uint64_t id) const;
 

@@ -69,6 +69,11 @@ struct PoseSearchOptions {
   /// The slip search (localization/pose_search.h): run the check and, when it fails, the search
   /// (fused mode only).
   bool enabled = true;
+  /// With enabled: the earlier map checks the pose too (pipeline/pipeline.h, "re-anchoring"):
+  /// when the check against the recent reference finds nothing, the same search runs against
+  /// the confirmed landmarks predicted in view but not associated in the last frame and not
+  /// seen within reference_frames, the max_reference best observed of them.
+  bool reanchor = true;
   /// Largest pose error the search covers: position [m] and heading [deg] per axis. The slips
   /// the issue names are 3-20 cm and 1-10 degrees; a little more leaves room for the
   /// prediction's own error.

@@ -64,7 +64,7 @@ static_assert(fieldCount<mapping::MappingOptions>() == 8,
 static_assert(
     fieldCount<localization::LocalizationOptions>() == 6,
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
-static_assert(fieldCount<localization::PoseSearchOptions>() == 17,
+static_assert(fieldCount<localization::PoseSearchOptions>() == 18,
               "PoseSearchOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<localization::PoseUpdateOptions>() == 9,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
@@ -389,6 +389,9 @@ void visitLocalization(O& o, V& v) {
   v.section("search", "the slip search (localization/pose_search.h)", [&](V& s) {
     auto& so = o.search;
     s("enabled", so.enabled, "check the prediction and search after a slip (fused) [bool]");
+    s("reanchor",
+      so.reanchor,
+      "also search against the earlier map's unassociated landmarks in view [bool]");
     s("max_slip_m", so.max_slip_m, "largest position error searched, per axis [m]");
     s("max_slip_deg", so.max_slip_deg, "largest heading error searched [deg]");
     s("match_px", so.match_px, "one-to-one match: pixel distance per axis [px]");

@@ -153,6 +153,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     out->search_reference = out->search_prediction_score = 0;
     out->search_best_score = out->search_rival_score = 0;
     out->search_correction = Pose2{};
+    out->reanchored = false;
+    out->reanchor_reference = 0;
     const Timer ts;
     if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled && has_estimate_) {
       reference_w_.clear();
@@ -171,6 +173,38 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       out->search_rival_score = sr.rival_score;
       out->search_correction = sr.best_correction;
       prediction.T_w_b = sr.T_w_b;
+      // The reference is what the last frames saw: after a slip that went unnoticed (a blank
+      // turn) the estimate and the landmarks placed with it since agree with each other, and
+      // the search has nothing to find. The earlier map checks the pose too: its confirmed
+      // landmarks that the last frame predicted in view but did not associate, the best
+      // observed first (the likeliest to be real and seen from here; most of the others are
+      // hidden behind nearer surfaces: the prediction ignores occlusion), at most
+      // max_reference of them. The same search, with the same acceptance tests, re-anchors
+      // the pose when they say it is off.
+      if (!sr.accepted && loc_options_.search.reanchor && !stale_ids_.empty()) {
+        stale_ranked_.clear();
+        for (uint64_t id : stale_ids_) {
+          const landmarks::Landmark* l = db_.find(id);
+          if (l != nullptr && l->state == landmarks::LandmarkState::kConfirmed)
+            stale_ranked_.emplace_back(-l->n_obs, id);
+        }
+        const size_t keep =
+            std::min(stale_ranked_.size(), static_cast<size_t>(loc_options_.search.max_reference));
+        std::partial_sort(stale_ranked_.begin(),
+                          stale_ranked_.begin() + static_cast<std::ptrdiff_t>(keep),
+                          stale_ranked_.end());
+        stale_ranked_.resize(keep);
+        std::sort(stale_ranked_.begin(), stale_ranked_.end(), [](const auto& x, const auto& y) {
+          return x.second < y.second;
+        });
+        reference_w_.clear();
+        for (const auto& r : stale_ranked_) reference_w_.push_back(db_.find(r.second)->p_w);
+        const localization::PoseSearchResult anchor = search_.run(
+            rig_, prediction.T_w_b, prediction.cov, reference_w_, hyps, loc_options_.search);
+        out->reanchor_reference = anchor.reference;
+        out->reanchored = anchor.accepted;
+        if (anchor.accepted) prediction.T_w_b = anchor.T_w_b;
+      }
     }
     search_ms = ts.elapsedMs();
     out->pose = localization::toPose2(prediction.T_w_b);
@@ -237,6 +271,11 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       }
     }
     if (loc_options_.mode == Mode::kFused && has_estimate_before) slipTest(sr, step_noise, out);
+    stale_ids_.clear();
+    if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled &&
+        loc_options_.search.reanchor) {
+      db_.unassociatedConfirmedInView(frame - loc_options_.search.reference_frames, &stale_ids_);
+    }
     out->times.localization_ms = tl.elapsedMs() + search_ms;
   }
   // Candidates whose corner was not detected are re-measured on this frame's images

@@ -66,6 +66,11 @@ struct FrameOutput {
   int search_best_score = 0;
   int search_rival_score = 0;
   Pose2 search_correction;
+  /// Fused: the earlier map's landmarks the last frame predicted in view but did not associate
+  /// (the re-anchoring check's reference, in view of this frame's prediction), and whether the
+  /// search against them replaced the prediction.
+  int reanchor_reference = 0;
+  bool reanchored = false;
   /// The camera was outside the octree's extent (about +-1.6 km at 5 cm resolution): the frame
   /// was not mapped (landmarks were still updated).
   bool outside_map = false;
@@ -158,6 +163,10 @@ class Pipeline {
   std::vector<uint64_t> reference_ids_;
   std::deque<std::vector<uint64_t>> recent_inliers_;  // per recent visual frame, oldest first
   std::vector<Eigen::Vector3d> reference_w_;
+  /// Confirmed landmarks the last frame predicted in view but did not associate, not seen within
+  /// the reference window: the earlier map's check of the pose (see landmarksAndMap).
+  std::vector<uint64_t> stale_ids_;
+  std::vector<std::pair<int, uint64_t>> stale_ranked_;  // (-observations, id)
   frontend::Frontend frontend_;
   landmarks::LandmarkDatabase db_;
   mapping::OccupancyMapper mapper_;

@@ -97,7 +97,9 @@ Status Run::execute(const FrameSource& next,
                                   fo.search_prediction_score,
                                   fo.search_best_score,
                                   fo.search_rival_score,
-                                  fo.search_correction});
+                                  fo.search_correction,
+                                  fo.reanchor_reference,
+                                  fo.reanchored});
     }
     if (callbacks.on_frame) {
       if (Status cs = callbacks.on_frame(RunFrame{frame, fo, pipe_, s.odometry_mode}); !cs)

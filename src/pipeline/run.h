@@ -83,6 +83,8 @@ struct RunSummary {
     int best_score = 0;
     int rival_score = 0;
     Pose2 correction;
+    int reanchor_reference = 0;  ///< FrameOutput::reanchor_reference
+    bool reanchored = false;     ///< FrameOutput::reanchored
   };
   std::vector<SearchFigures> search_figures;
   /// Time stamp of the first frame read [ns] (the simulator's time 0).
