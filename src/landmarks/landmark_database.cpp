@@ -236,14 +236,22 @@ Status LandmarkDatabase::correctFramePose(const Pose2& pose,
 }
 
 void LandmarkDatabase::unassociatedConfirmedInView(int32_t seen_before,
-                                                   std::vector<uint64_t>* ids) const {
+                                                   size_t max_count,
+                                                   std::vector<uint64_t>* ids) {
   TWOCAM_CHECK(frame_hyps_ != nullptr) << "unassociatedConfirmedInView outside a frame";
+  ranked_.clear();
   for (const Prediction& p : predictions_) {
     if (!p.confirmed || associated_[p.slot]) continue;
     const Landmark& l = slots_[p.slot];
     if (l.state == LandmarkState::kConfirmed && l.last_seen_frame < seen_before)
-      ids->push_back(l.id);
+      ranked_.emplace_back(-static_cast<int64_t>(l.n_obs), l.id);
   }
+  const size_t keep = std::min(max_count, ranked_.size());
+  std::partial_sort(
+      ranked_.begin(), ranked_.begin() + static_cast<std::ptrdiff_t>(keep), ranked_.end());
+  ids->clear();
+  for (size_t i = 0; i < keep; ++i) ids->push_back(ranked_[i].second);
+  std::sort(ids->begin(), ids->end());
 }
 
 void LandmarkDatabase::reassociateConfirmed(const OdometryErrorSigma& sigma) {

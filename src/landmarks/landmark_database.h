@@ -183,10 +183,13 @@ class LandmarkDatabase final : public AnchorPoses {
   /// Returns how many left.
   int pageOut(const std::vector<uint64_t>& ids);
 
-  /// Between beginFrame() and finishFrame(): appends to *ids the confirmed landmarks that this
-  /// frame's pose predicted in view, that no pass associated, and that were last seen before
-  /// frame `seen_before` (in prediction order).
-  void unassociatedConfirmedInView(int32_t seen_before, std::vector<uint64_t>* ids) const;
+  /// Between beginFrame() and finishFrame(): the confirmed landmarks that this frame's pose
+  /// predicted in view, that no pass associated, and that were last seen before frame
+  /// `seen_before`; of them the `max_count` with the most observations (ties: lower id first),
+  /// in *ids (replaced) in increasing id order.
+  void unassociatedConfirmedInView(int32_t seen_before,
+                                   size_t max_count,
+                                   std::vector<uint64_t>* ids);
 
   /// The live landmark with this id (candidate or confirmed), or nullptr. O(1).
   [[nodiscard]] const Landmark* find(uint64_t id) const;
@@ -307,7 +310,8 @@ class LandmarkDatabase final : public AnchorPoses {
     uint32_t point_index;
   };
   std::vector<GridEntry> grid_uvd_;
-  std::vector<uint32_t> rivals_;  // confirm()'s buffer
+  std::vector<uint32_t> rivals_;                      // confirm()'s buffer
+  std::vector<std::pair<int64_t, uint64_t>> ranked_;  // unassociatedConfirmedInView's buffer
   struct FusionEntry {
     uint32_t slot;
     float u, v, d;

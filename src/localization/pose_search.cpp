@@ -267,7 +267,8 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
                                  const Eigen::Matrix3d& prediction_cov,
                                  const std::vector<Eigen::Vector3d>& reference_w,
                                  const StereoHypotheses& hyps,
-                                 const PoseSearchOptions& o) {
+                                 const PoseSearchOptions& o,
+                                 WideSearch wide) {
   PoseSearchResult result;
   result.T_w_b = T_w_b_predicted;
   buildGrid(rig, hyps);
@@ -278,15 +279,21 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
     fitStep(rig, T_w_b_predicted, reference_w, hyps, Pose2{}, &result);
     return result;
   }
-  // Within the prediction's own error: headings up to local_sigmas x its yaw sigma, in steps
-  // of match_px (the scoring window covers the gap). In a turn the odometry step's heading
-  // error alone is ~0.4 degree (3 px) per frame: no slip, and no wide search needed.
+  // Within the prediction's own error: headings up to local_sigmas x its yaw sigma. In a turn
+  // the odometry step's heading error alone is ~0.4 degree (3 px) per frame: no slip, and no
+  // wide search needed. Steps of match_px (the scoring window covers the gap); with the
+  // heading sweep (WideSearch::kAfterHeadingSweep), its steps of 2 x match_px over the whole
+  // box, the local range being the part of it within the prediction's error.
   int local_score = result.prediction_score;
   double local_yaw = 0.0;
-  const double yaw_step = o.match_px / rig.fx_px;
+  int sweep_score = 0;
+  const bool heading_sweep = wide == WideSearch::kAfterHeadingSweep;
+  const double yaw_step = (heading_sweep ? 2.0 : 1.0) * o.match_px / rig.fx_px;
   const double yaw_range = o.local_sigmas * std::sqrt(std::max(0.0, prediction_cov(2, 2)));
-  const int local_steps = std::min(kMaxLocalSteps, static_cast<int>(yaw_range / yaw_step));
-  for (int k = -local_steps; k <= local_steps; ++k) {
+  const int steps = heading_sweep
+                        ? static_cast<int>(o.max_slip_deg * kDegToRad / yaw_step)
+                        : std::min(kMaxLocalSteps, static_cast<int>(yaw_range / yaw_step));
+  for (int k = -steps; k <= steps; ++k) {
     if (k == 0) continue;
     const double yaw = k * yaw_step;
     const int s = scoreMatches(rig,
@@ -296,6 +303,8 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
                                o,
                                nullptr,
                                nullptr);
+    sweep_score = std::max(sweep_score, s);
+    if (std::abs(yaw) > yaw_range + 1e-12) continue;
     if (s > local_score || (s == local_score && std::abs(yaw) < std::abs(local_yaw))) {
       local_score = s;
       local_yaw = yaw;
@@ -313,6 +322,11 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
     // of an update on the same observations would count them twice; on office_loops applying
     // it let the estimate follow the frame-to-frame fit and drift, ATE 0.12 against 0.019 m).
     fitStep(rig, T_w_b_predicted, reference_w, hyps, Pose2{0.0, 0.0, local_yaw}, &result);
+    return result;
+  }
+  if (heading_sweep &&
+      (sweep_score < o.min_matches || sweep_score < o.win_ratio * std::max(1, local_score) ||
+       sweep_score < o.trigger_fraction * result.reference)) {
     return result;
   }
   result.searched = true;

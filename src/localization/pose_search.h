@@ -21,6 +21,9 @@
 ///     explains at least min_matches and at least win_ratio x as many landmarks as the
 ///     prediction did (and at least trigger_fraction of the landmarks in view).
 ///
+/// With WideSearch::kAfterHeadingSweep, steps 2-4 run only when a heading alone would pass the
+/// check (for references that often fail it without the pose being wrong).
+///
 /// Deterministic: no random draws (pairs are enumerated in a fixed order).
 
 #include <Eigen/Core>
@@ -62,6 +65,21 @@ struct PoseSearchResult {
   int step_matches = 0;
 };
 
+/// When the wide search (steps 2-4) runs after the check fails.
+enum class WideSearch {
+  kAlways,
+  /// Only when a sweep of the heading alone over +-max_slip_deg (steps of 2 x match_px, which
+  /// the scoring window covers) finds a heading that would pass the check (trigger_fraction of
+  /// the references in view) and explains min_matches and win_ratio x the prediction's
+  /// matches. For references that often fail the check without the pose being wrong
+  /// (landmarks predicted in view but hidden behind nearer surfaces): an error large enough to
+  /// matter moves every pixel sideways, which a heading change largely undoes, and the sweep
+  /// costs a few dozen scorings where the wide search costs thousands of votes. On office
+  /// (no pose error) the earlier map's references gave sweeps of at most 28 of 120; after
+  /// office_loops' missed slip 55-101.
+  kAfterHeadingSweep,
+};
+
 /// The search's scratch buffers (the hypothesis grid, candidates, votes); one per pipeline, not
 /// thread-safe. Results are a pure function of the inputs.
 class PoseSearch {
@@ -74,7 +92,8 @@ class PoseSearch {
                        const Eigen::Matrix3d& prediction_cov,
                        const std::vector<Eigen::Vector3d>& reference_w,
                        const StereoHypotheses& hyps,
-                       const PoseSearchOptions& options);
+                       const PoseSearchOptions& options,
+                       WideSearch wide = WideSearch::kAlways);
 
  private:
   struct Candidate {

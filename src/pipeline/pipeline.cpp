@@ -182,25 +182,20 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       // max_reference of them. The same search, with the same acceptance tests, re-anchors
       // the pose when they say it is off.
       if (!sr.accepted && loc_options_.search.reanchor && !stale_ids_.empty()) {
-        stale_ranked_.clear();
+        reference_w_.clear();
         for (uint64_t id : stale_ids_) {
           const landmarks::Landmark* l = db_.find(id);
           if (l != nullptr && l->state == landmarks::LandmarkState::kConfirmed)
-            stale_ranked_.emplace_back(-l->n_obs, id);
+            reference_w_.push_back(l->p_w);
         }
-        const size_t keep =
-            std::min(stale_ranked_.size(), static_cast<size_t>(loc_options_.search.max_reference));
-        std::partial_sort(stale_ranked_.begin(),
-                          stale_ranked_.begin() + static_cast<std::ptrdiff_t>(keep),
-                          stale_ranked_.end());
-        stale_ranked_.resize(keep);
-        std::sort(stale_ranked_.begin(), stale_ranked_.end(), [](const auto& x, const auto& y) {
-          return x.second < y.second;
-        });
-        reference_w_.clear();
-        for (const auto& r : stale_ranked_) reference_w_.push_back(db_.find(r.second)->p_w);
-        const localization::PoseSearchResult anchor = search_.run(
-            rig_, prediction.T_w_b, prediction.cov, reference_w_, hyps, loc_options_.search);
+        const localization::PoseSearchResult anchor =
+            search_.run(rig_,
+                        prediction.T_w_b,
+                        prediction.cov,
+                        reference_w_,
+                        hyps,
+                        loc_options_.search,
+                        localization::WideSearch::kAfterHeadingSweep);
         out->reanchor_reference = anchor.reference;
         out->reanchored = anchor.accepted;
         if (anchor.accepted) prediction.T_w_b = anchor.T_w_b;
@@ -274,7 +269,9 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     stale_ids_.clear();
     if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled &&
         loc_options_.search.reanchor) {
-      db_.unassociatedConfirmedInView(frame - loc_options_.search.reference_frames, &stale_ids_);
+      db_.unassociatedConfirmedInView(frame - loc_options_.search.reference_frames,
+                                      static_cast<size_t>(loc_options_.search.max_reference),
+                                      &stale_ids_);
     }
     out->times.localization_ms = tl.elapsedMs() + search_ms;
   }

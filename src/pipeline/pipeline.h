@@ -164,9 +164,9 @@ class Pipeline {
   std::deque<std::vector<uint64_t>> recent_inliers_;  // per recent visual frame, oldest first
   std::vector<Eigen::Vector3d> reference_w_;
   /// Confirmed landmarks the last frame predicted in view but did not associate, not seen within
-  /// the reference window: the earlier map's check of the pose (see landmarksAndMap).
+  /// the reference window, the max_reference most observed: the earlier map's check of the pose
+  /// (re-anchoring, see landmarksAndMap).
   std::vector<uint64_t> stale_ids_;
-  std::vector<std::pair<int, uint64_t>> stale_ranked_;  // (-observations, id)
   frontend::Frontend frontend_;
   landmarks::LandmarkDatabase db_;
   mapping::OccupancyMapper mapper_;

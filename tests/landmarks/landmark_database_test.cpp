@@ -885,6 +885,39 @@ TEST(LandmarkDatabase, RestoredLandmarksAreConfirmedAndReassociated) {
   EXPECT_EQ(db.find(ids[0])->last_seen_frame, 1);
 }
 
+TEST(LandmarkDatabase, ListsTheEarlierMapsUnassociatedLandmarksInView) {
+  // The pipeline's re-anchoring reference: confirmed landmarks predicted in view, not associated
+  // this frame, last seen before a given frame; the most observed, in id order.
+  const StereoRig rig = SyntheticStream::defaultRig();
+  LandmarkDatabase db(rig, LandmarkOptions());
+  FrameReport report;
+  Pose2 pose;
+  ASSERT_TRUE(db.update(0, 0, pose, StereoHypotheses(), &report).isOk());
+  const Eigen::Isometry3d T_w_cl = cameraPoseInWorld(pose, rig.T_b_cl);
+  std::vector<Eigen::Vector3d> p_w;
+  for (const double u : {100.0, 250.0, 400.0, 550.0}) {
+    p_w.push_back(T_w_cl * *triangulateRectified(rig, Eigen::Vector2d(u, 200.0), 25.0));
+  }
+  p_w.push_back(T_w_cl * Eigen::Vector3d(0.0, 0.0, -2.0));  // behind the camera: not in view
+  std::vector<uint64_t> ids;
+  db.restoreConfirmed(p_w, &ids);
+  ASSERT_EQ(ids.size(), 5u);
+  // Frame 1 sees the second landmark only.
+  Eigen::Vector3d seen;
+  ASSERT_TRUE(projectStereo(rig, T_w_cl.inverse() * p_w[1], &seen));
+  const StereoHypotheses hyps = lonePoint(seen);
+  ASSERT_TRUE(db.beginFrame(1, 66'666'667, pose, hyps, &report).isOk());
+  ASSERT_EQ(report.hypothesis_landmark_id[0], ids[1]);
+  std::vector<uint64_t> listed{42};
+  db.unassociatedConfirmedInView(1, 10, &listed);
+  EXPECT_EQ(listed, (std::vector<uint64_t>{ids[0], ids[2], ids[3]})) << "replaced, id order";
+  db.unassociatedConfirmedInView(1, 2, &listed);
+  EXPECT_EQ(listed, (std::vector<uint64_t>{ids[0], ids[2]})) << "equal observations: lower ids";
+  db.unassociatedConfirmedInView(0, 10, &listed);
+  EXPECT_TRUE(listed.empty()) << "all were seen in frame 0";
+  db.finishFrame();
+}
+
 TEST(LandmarkDatabase, PagedOutLandmarksLeaveWithoutBeingReportedRemoved) {
   // The working set (pipeline/working_set.h) pages confirmed landmarks out: they leave the
   // database, but no FrameReport lists them as removed (the map keeps them); candidates and

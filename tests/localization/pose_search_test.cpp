@@ -156,6 +156,58 @@ TEST(PoseSearch, SameInputsSameResult) {
   EXPECT_TRUE(ra.T_w_b.isApprox(rb.T_w_b, 0.0));
 }
 
+TEST(PoseSearch, TheHeadingSweepLetsSlipsThroughAndStopsHiddenReferences) {
+  // WideSearch::kAfterHeadingSweep (the pipeline's re-anchoring on the earlier map): errors
+  // that a heading change largely undoes are found as by the search alone; references of
+  // which only a few are visible (the rest hidden, as behind nearer surfaces) fail the check
+  // at every heading, and the wide search does not run. Its limit: an error of 15 cm with 4
+  // degrees shifts near and far points differently, no heading passes the check, and it is
+  // left to the search against the recent reference (WideSearch::kAlways).
+  const StereoRig r = rig();
+  {
+    std::mt19937 rng(kSeed);
+    const auto points = scene(rng, 300);
+    const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
+    const Eigen::Isometry3d T_pred = T_true * toIsometry(Pose2{0.15, 0.03, 4.0 * kDeg}).inverse();
+    const StereoHypotheses h = frame(r, T_true, points, 1500, rng);
+    PoseSearch search;
+    EXPECT_FALSE(
+        search.run(r, T_pred, kCov, points, h, PoseSearchOptions{}, WideSearch::kAfterHeadingSweep)
+            .searched);
+  }
+  const std::vector<Pose2> slips = {
+      {0.03, 0.0, -8.0 * kDeg}, {0.03, 0.01, 3.0 * kDeg}, {-0.05, 0.02, 10.0 * kDeg}};
+  for (const Pose2& slip : slips) {
+    std::mt19937 rng(kSeed);
+    const auto points = scene(rng, 300);
+    const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
+    const Eigen::Isometry3d T_pred = T_true * toIsometry(slip).inverse();
+    const StereoHypotheses h = frame(r, T_true, points, 1500, rng);
+    PoseSearch search;
+    const PoseSearchResult res =
+        search.run(r, T_pred, kCov, points, h, PoseSearchOptions{}, WideSearch::kAfterHeadingSweep);
+    SCOPED_TRACE("slip " + std::to_string(slip.yaw_rad / kDeg) + " deg");
+    ASSERT_TRUE(res.accepted);
+    const Eigen::Isometry3d err = T_true.inverse() * res.T_w_b;
+    EXPECT_LT(err.translation().head<2>().norm(), kPositionTolM);
+    EXPECT_LT(std::abs(Eigen::AngleAxisd(err.linear()).angle()), kYawTolRad);
+  }
+  std::mt19937 rng(kSeed);
+  const auto points = scene(rng, 300);
+  const std::vector<Eigen::Vector3d> visible(points.begin(), points.begin() + 30);
+  const Eigen::Isometry3d T = planar(0.2, -0.1, 0.05);
+  const StereoHypotheses h = frame(r, T, visible, 1500, rng);
+  PoseSearch search;
+  const PoseSearchResult hidden =
+      search.run(r, T, kCov, points, h, PoseSearchOptions{}, WideSearch::kAfterHeadingSweep);
+  EXPECT_GE(hidden.reference, 100);
+  EXPECT_LT(hidden.prediction_score, PoseSearchOptions{}.trigger_fraction * hidden.reference);
+  EXPECT_FALSE(hidden.searched);
+  EXPECT_TRUE(hidden.T_w_b.isApprox(T));
+  // Searched always, the same references run the wide search.
+  EXPECT_TRUE(search.run(r, T, kCov, points, h, PoseSearchOptions{}).searched);
+}
+
 TEST(PoseSearch, TooFewReferenceLandmarksAreNotChecked) {
   std::mt19937 rng(kSeed);
   const StereoRig r = rig();
