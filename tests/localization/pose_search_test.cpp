@@ -83,6 +83,24 @@ Eigen::Isometry3d planar(double x, double y, double yaw_rad) {
   return toIsometry(Pose2{x, y, yaw_rad});
 }
 
+/// The seeded scene seen from a true pose, and the prediction that a slip put off it (the
+/// truth with the slip added).
+struct SlipScene {
+  std::vector<Eigen::Vector3d> points;
+  Eigen::Isometry3d T_true;
+  Eigen::Isometry3d T_pred;
+  StereoHypotheses h;
+};
+SlipScene slipScene(const StereoRig& r, const Pose2& slip) {
+  std::mt19937 rng(kSeed);
+  SlipScene sc;
+  sc.points = scene(rng, 300);
+  sc.T_true = planar(0.2, -0.1, 0.05);
+  sc.T_pred = sc.T_true * toIsometry(slip).inverse();
+  sc.h = frame(r, sc.T_true, sc.points, 1500, rng);
+  return sc;
+}
+
 TEST(PoseSearch, ThePredictionHoldsWithoutASlip) {
   std::mt19937 rng(kSeed);
   const StereoRig r = rig();
@@ -108,11 +126,8 @@ TEST(PoseSearch, FindsTheSlippedPoseAmongClutter) {
                                     {0.15, 0.03, 4.0 * kDeg},
                                     {-0.05, 0.02, 10.0 * kDeg}};
   for (const Pose2& slip : slips) {
-    std::mt19937 rng(kSeed);
-    const auto points = scene(rng, 300);
-    const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
-    const Eigen::Isometry3d T_pred = T_true * toIsometry(slip).inverse();
-    const StereoHypotheses h = frame(r, T_true, points, 1500, rng);
+    const SlipScene sc = slipScene(r, slip);
+    const auto& [points, T_true, T_pred, h] = sc;
     PoseSearch search;
     const PoseSearchResult res = search.run(r, T_pred, kCov, points, h, PoseSearchOptions{});
     SCOPED_TRACE("slip " + std::to_string(slip.x_m) + " m, " + std::to_string(slip.yaw_rad / kDeg) +
@@ -165,11 +180,8 @@ TEST(PoseSearch, TheHeadingSweepLetsSlipsThroughAndStopsHiddenReferences) {
   // left to the search against the recent reference (WideSearch::kAlways).
   const StereoRig r = rig();
   {
-    std::mt19937 rng(kSeed);
-    const auto points = scene(rng, 300);
-    const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
-    const Eigen::Isometry3d T_pred = T_true * toIsometry(Pose2{0.15, 0.03, 4.0 * kDeg}).inverse();
-    const StereoHypotheses h = frame(r, T_true, points, 1500, rng);
+    const SlipScene sc = slipScene(r, Pose2{0.15, 0.03, 4.0 * kDeg});
+    const auto& [points, T_true, T_pred, h] = sc;
     PoseSearch search;
     EXPECT_FALSE(
         search.run(r, T_pred, kCov, points, h, PoseSearchOptions{}, WideSearch::kAfterHeadingSweep)
@@ -178,11 +190,8 @@ TEST(PoseSearch, TheHeadingSweepLetsSlipsThroughAndStopsHiddenReferences) {
   const std::vector<Pose2> slips = {
       {0.03, 0.0, -8.0 * kDeg}, {0.03, 0.01, 3.0 * kDeg}, {-0.05, 0.02, 10.0 * kDeg}};
   for (const Pose2& slip : slips) {
-    std::mt19937 rng(kSeed);
-    const auto points = scene(rng, 300);
-    const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
-    const Eigen::Isometry3d T_pred = T_true * toIsometry(slip).inverse();
-    const StereoHypotheses h = frame(r, T_true, points, 1500, rng);
+    const SlipScene sc = slipScene(r, slip);
+    const auto& [points, T_true, T_pred, h] = sc;
     PoseSearch search;
     const PoseSearchResult res =
         search.run(r, T_pred, kCov, points, h, PoseSearchOptions{}, WideSearch::kAfterHeadingSweep);
