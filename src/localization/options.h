@@ -101,7 +101,8 @@ struct PoseSearchOptions {
   /// falls in one) the last frame saw only a handful.
   int reference_frames = 10;
   /// Refused as ambiguous when a searched pose two vote bins or more from the winner explains
-  /// at least this fraction of the winner's matches [-] (a periodic texture's alias).
+  /// at least this fraction of the winner's matches with matches it does not share with the
+  /// winner (all its matches when re-anchoring) [-] (a periodic texture's alias).
   double ambiguity_ratio = 0.8;
   /// Fewest reference landmarks in view for a check or a search [-].
   int min_reference = 12;

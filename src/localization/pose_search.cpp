@@ -487,6 +487,10 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
   std::vector<Eigen::Vector2d> q_fit;
   std::vector<Eigen::Vector2d> p_fit;
   std::vector<std::pair<int, Pose2>> tried;  // each bin's best score and pose
+  // Each bin's matches at its best pose, back to back (tried_begin[k] .. tried_begin[k + 1]).
+  tried_matches_.clear();
+  std::vector<size_t> tried_begin;
+  std::vector<std::pair<int, uint32_t>> bin_best;
   for (size_t k = 0; k < keep; ++k) {
     const int64_t key = bins[k].second;
     const double x = (static_cast<double>(key % span_t) - static_cast<double>(nbin_t)) * o.vote_m;
@@ -496,11 +500,15 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
         (static_cast<double>(key / (span_t * span_t)) - static_cast<double>(nbin_yaw)) * bin_yaw;
     Pose2 correction{x, y, yaw};
     tried.emplace_back(-1, correction);
+    bin_best.clear();
     // Score the bin's pose, refit to its matches, score again (twice: the bin is coarse).
     for (int pass = 0; pass < 3; ++pass) {
       const Eigen::Isometry3d T = T_w_b_predicted * toIsometry(correction);
       const int s = scoreMatches(rig, T, reference_w, hyps, o, nullptr, &matches_);
-      if (s > tried.back().first) tried.back() = {s, correction};
+      if (s > tried.back().first) {
+        tried.back() = {s, correction};
+        bin_best = matches_;
+      }
       if (s > best_score) {
         best_score = s;
         best_pose = T;
@@ -529,15 +537,45 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
       if (q_fit.size() < 3) break;
       correction = fitPlanar(q_fit, p_fit);
     }
+    tried_begin.push_back(tried_matches_.size());
+    tried_matches_.insert(tried_matches_.end(), bin_best.begin(), bin_best.end());
   }
+  tried_begin.push_back(tried_matches_.size());
   // A periodic texture (or a scene seen twice) explains the references at another pose too:
   // the best of the poses two bins or more away from the winner must fall clearly short.
+  // Against the recent reference a rival counts only the matches it does not share with the
+  // winner (the same landmark on the same salient point): a pose shifted along the direction
+  // the references constrain least (ground texture ahead) keeps most of the winner's matches,
+  // and those are evidence for one answer, not for two. Against the earlier map (the heading
+  // sweep's references, most of them hidden) a rival counts all its matches: what it shares
+  // with the winner may be chance matches of both.
+  const bool count_unshared = !heading_sweep;
+  if (count_unshared) {
+    winner_point_.assign(reference_w.size(), kNoPoint);
+    scoreMatches(rig,
+                 T_w_b_predicted * toIsometry(best_correction),
+                 reference_w,
+                 hyps,
+                 o,
+                 nullptr,
+                 &matches_);
+    for (const auto& [ref, point] : matches_) winner_point_[static_cast<size_t>(ref)] = point;
+  }
   int rival_score = 0;
-  for (const auto& [s, pose] : tried) {
+  for (size_t k = 0; k < tried.size(); ++k) {
+    const Pose2& pose = tried[k].second;
     const bool distinct = std::hypot(pose.x_m - best_correction.x_m,
                                      pose.y_m - best_correction.y_m) > 2.0 * o.vote_m ||
                           std::abs(pose.yaw_rad - best_correction.yaw_rad) > 2.0 * bin_yaw;
-    if (distinct) rival_score = std::max(rival_score, s);
+    if (!distinct) continue;
+    int score = tried[k].first;
+    if (count_unshared) {
+      for (size_t m = tried_begin[k]; m < tried_begin[k + 1]; ++m) {
+        const auto& [ref, point] = tried_matches_[m];
+        if (winner_point_[static_cast<size_t>(ref)] == point) --score;
+      }
+    }
+    rival_score = std::max(rival_score, score);
   }
   result.rival_score = rival_score;
   result.best_score = std::max(0, best_score);

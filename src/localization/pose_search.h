@@ -19,7 +19,9 @@
 ///  4. Scores. The fullest bins' poses are scored as in step 1, one-to-one, refined by a planar
 ///     least-squares fit to their matches and scored again. The best is accepted when it
 ///     explains at least min_matches and at least win_ratio x as many landmarks as the
-///     prediction did (and at least trigger_fraction of the landmarks in view).
+///     prediction did (and at least trigger_fraction of the landmarks in view), and no pose
+///     two bins or more away reaches ambiguity_ratio of its matches with matches of its own
+///     (those it does not share with the winner).
 ///
 /// With WideSearch::kAfterHeadingSweep, steps 2-4 run only when a heading alone would pass the
 /// check (for references that often fail it without the pose being wrong).
@@ -45,7 +47,10 @@ struct PoseSearchResult {
   bool searched = false;     ///< the check failed and the search ran
   bool accepted = false;     ///< the search found a pose that explains decisively more
   int score = 0;             ///< matches at the accepted pose (0 when not accepted)
-  int rival_score = 0;       ///< best score of the searched poses distinct from the winner
+  /// Of the searched poses distinct from the winner, the most matches one holds; with
+  /// WideSearch::kAlways only those the winner does not share (the same landmark on the same
+  /// salient point).
+  int rival_score = 0;
   /// Searched (accepted or not): the most matches of a searched pose, and its correction (the
   /// winner the acceptance tests judged).
   int best_score = 0;
@@ -76,7 +81,9 @@ enum class WideSearch {
   /// matter moves every pixel sideways, which a heading change largely undoes, and the sweep
   /// costs a few dozen scorings where the wide search costs thousands of votes. On office
   /// (no pose error) the earlier map's references gave sweeps of at most 28 of 120; after
-  /// office_loops' missed slip 55-101.
+  /// office_loops' missed slip 55-101. Its rivals count all their matches, shared with the
+  /// winner or not: matches to references most of which are hidden may be chance matches of
+  /// both (counting only unshared ones re-anchored corridor_posters four times, wrongly).
   kAfterHeadingSweep,
 };
 
@@ -132,6 +139,9 @@ class PoseSearch {
   std::vector<uint32_t> candidate_start_;  // per reference landmark used
   std::vector<int64_t> votes_;
   std::vector<std::pair<int, uint32_t>> matches_;
+  std::vector<std::pair<int, uint32_t>> tried_matches_;  // the scored bins' matches
+  static constexpr uint32_t kNoPoint = 0xFFFFFFFFU;
+  std::vector<uint32_t> winner_point_;  // per reference landmark: its point at the winner
 };
 
 /// Planar rigid fit p_i = R(yaw) q_i + t (x, y only) by least squares; (t_x, t_y, yaw).

@@ -410,7 +410,8 @@ void visitLocalization(O& o, V& v) {
       "the reference: landmarks the last this many visual updates used [-]");
     s("ambiguity_ratio",
       so.ambiguity_ratio,
-      "refused when a distinct pose explains this fraction of the winner's matches [-]");
+      "refused when a distinct pose explains this fraction of the winner's matches with its own "
+      "[-]");
     s("min_reference", so.min_reference, "fewest reference landmarks in view to check [-]");
     s("max_reference", so.max_reference, "most reference landmarks the search uses [-]");
     s("min_matches", so.min_matches, "fewest matches of an accepted pose [-]");
