@@ -90,7 +90,8 @@ struct PoseSearchOptions {
   /// (docs/localization.md); after a slip of a degree or more, a few percent.
   double trigger_fraction = 0.4;
   /// The check also tries headings within local_sigmas x the prediction's yaw sigma [-] (the
-  /// odometry step's own error) before it calls the prediction wrong.
+  /// odometry step's own error); the best one's matches are the bar a searched pose must
+  /// clear by win_ratio (against the earlier map, one passing the check ends it).
   double local_sigmas = 3.0;
   /// A searched pose must explain at least this fraction of the reference landmarks in view
   /// [-]. At a slip's true pose 0.63-0.9 of them match on office_loops; the poses that rotate

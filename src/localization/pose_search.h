@@ -9,6 +9,11 @@
 ///     with the predicted pose and matched one-to-one to the frame's hypotheses within
 ///     match_px / match_disparity_px (each salient point explains at most one landmark). When at
 ///     least trigger_fraction of those in view match, the prediction holds: no search.
+///     Otherwise headings within local_sigmas x the prediction's yaw sigma are tried; the best
+///     one's matches measure the step (below) and set the bar the search must clear, and the
+///     search runs only when a winner could clear it (win_ratio x those matches, at most every
+///     reference in view). A heading passing the check does not end it: after a slip of
+///     position and heading it lines up the far points only.
 ///  2. Candidates. Each reference landmark's window is the box its projection sweeps over every
 ///     planar pose error up to (max_slip_m, max_slip_deg); every hypothesis in that box whose
 ///     stereo point has the landmark's height and range (within the slip and the disparity's
@@ -17,14 +22,16 @@
 ///     (dx, dy, dyaw) when the candidates' distance equals the landmarks' (a rigid pair); each
 ///     rigid pair votes for its pose error in a histogram of vote_m x vote_m x vote_deg bins.
 ///  4. Scores. The fullest bins' poses are scored as in step 1, one-to-one, refined by a planar
-///     least-squares fit to their matches and scored again. The best is accepted when it
+///     least-squares fit to their matches and scored again; the best is refined further by the
+///     step fit (pixels and disparity) while it explains more. It is accepted when it
 ///     explains at least min_matches and at least win_ratio x as many landmarks as the
-///     prediction did (and at least trigger_fraction of the landmarks in view), and no pose
-///     two bins or more away reaches ambiguity_ratio of its matches with matches of its own
-///     (those it does not share with the winner).
+///     prediction or the best heading did (and at least accept_fraction of the landmarks in
+///     view), and no pose two bins or more away reaches ambiguity_ratio of its matches with
+///     matches of its own (those it does not share with the winner).
 ///
 /// With WideSearch::kAfterHeadingSweep, steps 2-4 run only when a heading alone would pass the
-/// check (for references that often fail it without the pose being wrong).
+/// check (for references that often fail it without the pose being wrong), a heading within
+/// the prediction's error that passes it ends the check, and the winner is not refined.
 ///
 /// Deterministic: no random draws (pairs are enumerated in a fixed order).
 

@@ -246,6 +246,57 @@ TEST(PoseSearch, APoseThatKeepsTheWinnersMatchesIsNoRival) {
   EXPECT_LT(std::abs(Eigen::AngleAxisd(err.linear()).angle()), kYawTolRad);
 }
 
+TEST(PoseSearch, AHeadingThatPassesTheCheckDoesNotStopTheSearch) {
+  // Far trees and near lawn, a slip of 6 cm and 2.5 degrees in a turn (the prediction's
+  // heading sigma 1 degree). A heading within three sigmas lines the far points up again and
+  // passes the check with a fraction of the references; the near ground needs the position
+  // too. The search runs all the same and its pose, which explains twice as many, replaces
+  // the prediction (garden, seed 4: the heading's 364 of 889 references against the slipped
+  // pose's 790).
+  const StereoRig r = rig();
+  std::mt19937 rng(kSeed);
+  std::uniform_real_distribution<double> far_x(15.0, 30.0), far_y(-8.0, 8.0), far_z(0.0, 3.0);
+  std::uniform_real_distribution<double> near_x(0.8, 2.0), near_y(-1.0, 1.0);
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < 85; ++i) points.emplace_back(far_x(rng), far_y(rng), far_z(rng));
+  for (int i = 0; i < 180; ++i) points.emplace_back(near_x(rng), near_y(rng), 0.0);
+  const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
+  const Pose2 slip{0.06, 0.01, 2.5 * kDeg};
+  const Eigen::Isometry3d T_pred = T_true * toIsometry(slip).inverse();
+  const StereoHypotheses h = frame(r, T_true, points, 1500, rng);
+  const Eigen::Matrix3d turn_cov =
+      Eigen::Vector3d(1e-4, 1e-4, std::pow(1.0 * kDeg, 2)).asDiagonal().toDenseMatrix();
+  const PoseSearchOptions o;
+  PoseSearch search;
+  // The heading alone passes the check.
+  int in_view = 0;
+  int best_heading = 0;
+  for (double yaw = -3.0 * kDeg; yaw <= 3.0 * kDeg; yaw += 0.25 * kDeg) {
+    const PoseSearchResult at = search.run(
+        r, T_pred * planar(0, 0, yaw), kCov, points, h, o, WideSearch::kAfterHeadingSweep);
+    in_view = at.reference;
+    best_heading = std::max(best_heading, at.prediction_score);
+  }
+  ASSERT_GE(best_heading, o.trigger_fraction * in_view);
+  const PoseSearchResult res = search.run(r, T_pred, turn_cov, points, h, o);
+  EXPECT_TRUE(res.searched);
+  ASSERT_TRUE(res.accepted) << "best " << res.best_score << ", heading " << best_heading
+                            << ", rival " << res.rival_score;
+  EXPECT_GE(res.score, o.win_ratio * best_heading);
+  const Eigen::Isometry3d err = T_true.inverse() * res.T_w_b;
+  EXPECT_LT(err.translation().head<2>().norm(), kPositionTolM);
+  EXPECT_LT(std::abs(Eigen::AngleAxisd(err.linear()).angle()), kYawTolRad);
+  // A turn's heading error alone: a heading explains more than half of the references, no
+  // pose could explain win_ratio x as many, and the search does not run.
+  const Eigen::Isometry3d T_turn = T_true * planar(0.0, 0.0, 1.5 * kDeg).inverse();
+  const PoseSearchResult turn = search.run(r, T_turn, turn_cov, points, h, o);
+  EXPECT_LT(turn.prediction_score, o.trigger_fraction * turn.reference);
+  EXPECT_FALSE(turn.searched);
+  EXPECT_TRUE(turn.T_w_b.isApprox(T_turn));
+  ASSERT_TRUE(turn.step_measured);
+  EXPECT_NEAR(turn.step.yaw_rad, 1.5 * kDeg, kYawTolRad);
+}
+
 TEST(PoseSearch, TooFewReferenceLandmarksAreNotChecked) {
   std::mt19937 rng(kSeed);
   const StereoRig r = rig();
