@@ -165,8 +165,9 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
   std::ostringstream csv;
   csv << std::setprecision(9)
       << "frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m,searched,"
-         "search_accepted,search_reference,search_prediction_score,search_best_score,"
-         "search_rival_score,search_dx_m,search_dy_m,search_dyaw_deg,reanchor_reference,"
+         "search_accepted,search_reference,search_prediction_score,search_chance_score,"
+         "search_best_score,search_rival_score,search_dx_m,search_dy_m,search_dyaw_deg,reanchor_"
+         "reference,"
          "reanchored\n";
   size_t next_flag = 0;
   for (size_t i = 0; i < s.pose_track.size() && i < s.records.size(); ++i) {
@@ -190,7 +191,7 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
     // The check's figures on every frame it ran; the searched pose's only where it searched.
     const pipeline::RunSummary::SearchFigures f =
         i < s.search_figures.size() ? s.search_figures[i] : pipeline::RunSummary::SearchFigures{};
-    csv << ',' << f.reference << ',' << f.prediction_score;
+    csv << ',' << f.reference << ',' << f.prediction_score << ',' << f.chance_score;
     if (search >= 1) {
       csv << ',' << f.best_score << ',' << f.rival_score << ',' << f.correction.x_m << ','
           << f.correction.y_m << ',' << f.correction.yaw_rad * 180.0 / M_PI;

@@ -56,8 +56,11 @@ struct PoseUpdateOptions {
 };
 
 struct SlipTestOptions {
-  /// Frames over which odometry's motion is compared with the visual estimates' [-].
-  int window_frames = 3;
+  /// Measured steps over which odometry's motion is compared with the visual estimates' [-]
+  /// (localization/slip_test.h): the slip's and one that confirms it. Each further step adds
+  /// its noise to the sum while a slip is one step (with 3, office_loops' 3 cm and 3 degree
+  /// slip in a turn tested 16.0 with noise seed 2).
+  int window_frames = 2;
   /// Chi-square (3 dof) of that difference above which the window holds an odometry outlier
   /// [-]. 16.27 = chi-square(3) 99.9 %.
   double chi2 = 16.27;
@@ -86,16 +89,18 @@ struct PoseSearchOptions {
   double match_px = 2.5;
   double match_disparity_px = 1.5;
   /// The check: the prediction holds when this fraction of the reference landmarks in view
-  /// match [-]. Frame to frame about 0.7-0.9 of them are detected and matched again
-  /// (docs/localization.md); after a slip of a degree or more, a few percent.
+  /// match, both counted beyond the matches chance would give (PoseSearch::chanceMatches) [-].
+  /// Frame to frame about 0.6-0.9 of them are detected and matched again (docs/localization.md);
+  /// after a slip of a degree or more, a few percent.
   double trigger_fraction = 0.4;
   /// The check also tries headings within local_sigmas x the prediction's yaw sigma [-] (the
   /// odometry step's own error); the best one's matches are the bar a searched pose must
   /// clear by win_ratio (against the earlier map, one passing the check ends it).
   double local_sigmas = 3.0;
-  /// A searched pose must explain at least this fraction of the reference landmarks in view
-  /// [-]. At a slip's true pose 0.63-0.9 of them match on office_loops; the poses that rotate
-  /// about a wall (a rotation and a sideways shift that cancel on one plane) 0.45-0.52.
+  /// A searched pose must explain at least this fraction of the reference landmarks in view,
+  /// beyond chance as the check [-]. At a slip's true pose 0.63-0.9 of them match on office_loops;
+  /// the poses that rotate about a wall (a rotation and a sideways shift that cancel on one plane)
+  /// 0.45-0.52.
   double accept_fraction = 0.6;
   /// The reference landmarks: those the last reference_frames visual updates used [-]. One
   /// frame is enough in a textured corridor; after a blank turn (office_loops' 8 degree slip

@@ -8,7 +8,10 @@
 ///  1. Check. The reference landmarks (those the previous frame's update used) are projected
 ///     with the predicted pose and matched one-to-one to the frame's hypotheses within
 ///     match_px / match_disparity_px (each salient point explains at most one landmark). When at
-///     least trigger_fraction of those in view match, the prediction holds: no search.
+///     least trigger_fraction of those in view match, the prediction holds: no search. Counts
+///     and shares are taken beyond chance (chanceMatches: on dense texture a match window
+///     holds a salient point with the right disparity at any pose), against the recent
+///     reference; against the earlier map the raw counts are kept.
 ///     Otherwise headings within local_sigmas x the prediction's yaw sigma are tried; the best
 ///     one's matches measure the step (below) and set the bar the search must clear, and the
 ///     search runs only when a winner could clear it (win_ratio x those matches, at most every
@@ -26,8 +29,8 @@
 ///     step fit (pixels and disparity) while it explains more. It is accepted when it
 ///     explains at least min_matches and at least win_ratio x as many landmarks as the
 ///     prediction or the best heading did (and at least accept_fraction of the landmarks in
-///     view), and no pose two bins or more away reaches ambiguity_ratio of its matches with
-///     matches of its own (those it does not share with the winner).
+///     view), all beyond chance, and no pose two bins or more away reaches ambiguity_ratio of its
+///     matches with matches of its own (those it does not share with the winner).
 ///
 /// With WideSearch::kAfterHeadingSweep, steps 2-4 run only when a heading alone would pass the
 /// check (for references that often fail it without the pose being wrong), a heading within
@@ -51,9 +54,12 @@ namespace twocam::localization {
 struct PoseSearchResult {
   int reference = 0;         ///< reference landmarks in view of the prediction
   int prediction_score = 0;  ///< of them matched one-to-one at the prediction
-  bool searched = false;     ///< the check failed and the search ran
-  bool accepted = false;     ///< the search found a pose that explains decisively more
-  int score = 0;             ///< matches at the accepted pose (0 when not accepted)
+  /// Matches chance alone would give at the prediction (PoseSearch::chanceMatches; with
+  /// WideSearch::kAlways, else 0): the check's and the acceptance's counts are taken beyond it.
+  double chance_score = 0.0;
+  bool searched = false;  ///< the check failed and the search ran
+  bool accepted = false;  ///< the search found a pose that explains decisively more
+  int score = 0;          ///< matches at the accepted pose (0 when not accepted)
   /// Of the searched poses distinct from the winner, the most matches one holds; with
   /// WideSearch::kAlways only those the winner does not share (the same landmark on the same
   /// salient point).
@@ -126,6 +132,15 @@ class PoseSearch {
                    const PoseSearchOptions& options,
                    int* in_view,
                    std::vector<std::pair<int, uint32_t>>* matches);
+
+  /// Expected chance matches at T_w_b: per reference landmark in view, the chance that a
+  /// salient point with a disparity within match_disparity_px falls into its match window, from
+  /// the density of such points in the ring round it.
+  double chanceMatches(const StereoRig& rig,
+                       const Eigen::Isometry3d& T_w_b,
+                       const std::vector<Eigen::Vector3d>& reference_w,
+                       const StereoHypotheses& hyps,
+                       const PoseSearchOptions& options) const;
 
   /// Robust planar fit of the correction to `matches_` (see PoseSearchResult::step), from
   /// `start`; false when too few inliers.

@@ -383,7 +383,7 @@ void visitLocalization(O& o, V& v) {
   });
   v.section("slip", "the windowed slip test", [&](V& s) {
     auto& so = o.slip;
-    s("window_frames", so.window_frames, "frames compared with odometry [-], in [1, 100]");
+    s("window_frames", so.window_frames, "measured steps compared with odometry [-], in [1, 100]");
     s("chi2", so.chi2, "chi-square (3 dof) of an odometry outlier [-]");
   });
   v.section("search", "the slip search (localization/pose_search.h)", [&](V& s) {

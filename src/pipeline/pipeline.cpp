@@ -26,41 +26,6 @@ constexpr size_t kEnoughReference = 50;
 
 }  // namespace
 
-void Pipeline::slipTest(const localization::PoseSearchResult& step,
-                        const Eigen::Matrix3d& step_noise,
-                        FrameOutput* out) {
-  // The last window_frames odometry steps against the steps the reference landmarks measured
-  // (PoseSearchResult::step): the sum of their errors over the window, chi-square with the
-  // summed covariances (the odometry step's, the previous estimate's and the fit's).
-  const auto w = static_cast<size_t>(loc_options_.slip.window_frames);
-  window_.push_back({report_.frame, step.step_measured, step.step, step.step_cov + step_noise});
-  if (window_.size() > w) window_.erase(window_.begin());
-  if (window_.size() < w) return;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const WindowEntry& e : window_) {
-    if (!e.measured) return;
-    sum += Eigen::Vector3d(e.step.x_m, e.step.y_m, e.step.yaw_rad);
-    cov += e.cov;
-  }
-  const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
-  if (ldlt.info() != Eigen::Success || sum.dot(ldlt.solve(sum)) <= loc_options_.slip.chi2) return;
-  // The step of the window that disagrees most is the slip; each is flagged once.
-  size_t worst = 0;
-  double worst_chi2 = -1.0;
-  for (size_t k = 0; k < window_.size(); ++k) {
-    const Eigen::Vector3d d(window_[k].step.x_m, window_[k].step.y_m, window_[k].step.yaw_rad);
-    const double c = d.dot(window_[k].cov.ldlt().solve(d));
-    if (c > worst_chi2) {
-      worst_chi2 = c;
-      worst = k;
-    }
-  }
-  if (window_[worst].frame <= last_slip_frame_) return;
-  last_slip_frame_ = window_[worst].frame;
-  out->slip_frame = last_slip_frame_;
-}
-
 Status clampToRig(const StereoRig& rig, PipelineConfig* config) {
   frontend::SalientSadOptions& sad = config->frontend.sad;
   sad.max_disparity_px = std::min(sad.max_disparity_px, rig.width_px - sad.window_width_px);
@@ -75,7 +40,8 @@ Pipeline::Pipeline(const StereoRig& rig, const PipelineConfig& config)
       odometry_noise_(config.landmarks.tracker.odometry_noise),
       frontend_(config.frontend),
       db_(rig, config.landmarks),
-      mapper_(config.mapping) {}
+      mapper_(config.mapping),
+      slip_test_(config.localization.slip) {}
 
 void Pipeline::skipRowSupport() {
   frontend::FrontendOptions options = frontend_.options();
@@ -135,15 +101,13 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   out->slip_frame = -1;
   double search_ms = 0.0;
   localization::PoseSearchResult sr;
-  Eigen::Matrix3d step_noise = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d previous_cov = Eigen::Matrix3d::Zero();
+  Pose2 increment;
   if (localizing) {
     if (has_estimate_) {
-      const Pose2 increment = localization::odometryIncrement(previous_odom_, odom_pose);
+      increment = localization::odometryIncrement(previous_odom_, odom_pose);
       prediction = localization::predictPose(estimate_, increment, odometry_noise_);
-      step_noise =
-          estimate_.cov + localization::odometryCovariance(odometry_noise_,
-                                                           std::hypot(increment.x_m, increment.y_m),
-                                                           std::abs(increment.yaw_rad));
+      previous_cov = estimate_.cov;
     } else {
       prediction.T_w_b = toIsometry(odom_pose);  // the shared start pose
     }
@@ -151,6 +115,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     // used, a pose found from the frame's hypotheses replaces it.
     out->searched = out->search_accepted = false;
     out->search_reference = out->search_prediction_score = 0;
+    out->search_chance_score = 0.0;
     out->search_best_score = out->search_rival_score = 0;
     out->search_correction = Pose2{};
     out->reanchored = false;
@@ -167,6 +132,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
           rig_, prediction.T_w_b, prediction.cov, reference_w_, hyps, loc_options_.search);
       out->search_reference = sr.reference;
       out->search_prediction_score = sr.prediction_score;
+      out->search_chance_score = sr.chance_score;
       out->searched = sr.searched;
       out->search_accepted = sr.accepted;
       out->search_best_score = sr.best_score;
@@ -265,7 +231,14 @@ Status Pipeline::landmarksAndMap(int32_t frame,
         return s;
       }
     }
-    if (loc_options_.mode == Mode::kFused && has_estimate_before) slipTest(sr, step_noise, out);
+    // The slip test reads the step the reference landmarks measured against odometry's.
+    if (loc_options_.mode == Mode::kFused && has_estimate_before && sr.step_measured) {
+      out->slip_frame =
+          slip_test_.add(frame,
+                         sr.step,
+                         localization::stepCovariance(
+                             odometry_noise_, increment, sr.step, previous_cov, sr.step_cov));
+    }
     stale_ids_.clear();
     if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled &&
         loc_options_.search.reanchor) {

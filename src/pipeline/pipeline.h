@@ -16,6 +16,7 @@
 #include "landmarks/landmark_database.h"
 #include "localization/pose_search.h"
 #include "localization/pose_update.h"
+#include "localization/slip_test.h"
 #include "mapping/occupancy_mapper.h"
 #include "pipeline/config.h"
 
@@ -59,6 +60,9 @@ struct FrameOutput {
   /// its pose replaced the prediction.
   int search_reference = 0;
   int search_prediction_score = 0;
+  /// Of the prediction's matches, how many chance alone would give (PoseSearchResult::
+  /// chance_score).
+  double search_chance_score = 0.0;
   bool searched = false;
   bool search_accepted = false;
   /// Searched: the best searched pose's matches, the best distinct rival's, and its correction
@@ -138,9 +142,6 @@ class Pipeline {
   /// The frame's pose (localization.mode): odometry, or predicted then corrected between the
   /// database's association and its scoring. Errors only from the database.
   Status localize(int32_t frame, const Pose2& odom_pose, FrameOutput* out);
-  void slipTest(const localization::PoseSearchResult& step,
-                const Eigen::Matrix3d& step_noise,
-                FrameOutput* out);
 
   StereoRig rig_;
   localization::LocalizationOptions loc_options_;
@@ -148,15 +149,6 @@ class Pipeline {
   bool has_estimate_ = false;
   localization::PoseWithCovariance estimate_;
   Pose2 previous_odom_;
-  /// The slip test's window: the last frames' measured odometry step errors, oldest first.
-  struct WindowEntry {
-    int32_t frame;
-    bool measured;
-    Pose2 step;
-    Eigen::Matrix3d cov;
-  };
-  std::vector<WindowEntry> window_;
-  int32_t last_slip_frame_ = -1;
   std::vector<localization::LandmarkObservation> loc_obs_;
   /// The slip search, and its reference: the confirmed landmarks the last visual updates used.
   localization::PoseSearch search_;
@@ -170,6 +162,7 @@ class Pipeline {
   frontend::Frontend frontend_;
   landmarks::LandmarkDatabase db_;
   mapping::OccupancyMapper mapper_;
+  localization::SlipTest slip_test_;
   StereoHypotheses hyps_;
   landmarks::FrameReport report_;
   StereoHypotheses probe_hyps_;  // the re-measurement's output, reused between frames

@@ -95,6 +95,7 @@ Status Run::execute(const FrameSource& next,
       s.search.push_back(fo.search_accepted ? 2 : (fo.searched ? 1 : 0));
       s.search_figures.push_back({fo.search_reference,
                                   fo.search_prediction_score,
+                                  fo.search_chance_score,
                                   fo.search_best_score,
                                   fo.search_rival_score,
                                   fo.search_correction,

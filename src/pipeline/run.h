@@ -80,6 +80,7 @@ struct RunSummary {
   struct SearchFigures {
     int reference = 0;
     int prediction_score = 0;
+    double chance_score = 0.0;  ///< FrameOutput::search_chance_score
     int best_score = 0;
     int rival_score = 0;
     Pose2 correction;
