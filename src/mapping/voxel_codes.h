@@ -38,15 +38,17 @@ inline uint64_t mortonCode(const octomap::OcTreeKey& k) {
 
 /// How a frame's keys map to codes. Two layouts:
 ///  - full: the 48-bit Morton code (any key).
-///  - windowed: for keys that lie, per axis, in the 512 keys from base (a multiple of 256): the
-///    24-bit Morton code of the keys' low 8 bits, and above it one bit per axis, (key - base) >=
-///    256, 27 bits in all. base / 256 and base / 256 + 1 first differ at some bit t; the axis whose
-///    t is highest (then z before y before x, as in the Morton code) gets the top bit. Then two
-///    keys whose high parts (key >> 8) differ compare as in the Morton code: at the highest
-///    differing Morton bit, which belongs to that axis at level 8 + t. So the order is Morton
-///    order, with 3 radix passes instead of 5. A frame's rays span at most 2 max_range / resolution
-///    + 1 keys per axis (243 with the defaults), so the windowed layout fits whenever that is < 256
-///    - 4.
+///  - windowed: for keys that lie, per axis, in the 512 keys from `base` (a multiple of 256).
+///    Bits 0-23: the Morton code of the keys' low 8 bits. Bits 24-26: one window bit per axis,
+///    set when key - base >= 256. 27 bits in all, so 3 radix passes instead of 5.
+///    Why this is Morton order: two keys whose high parts (key >> 8) are equal compare by their
+///    low bits, as in the Morton code. Otherwise, per axis the high parts are h = base / 256 or
+///    h + 1, which first differ at some bit t; the Morton code compares the keys at the highest
+///    differing bit, i.e. on the differing axis with the highest 3 (8 + t) + axis. So the window
+///    bits are ranked by 3 t + axis: the axis with the highest t (ties: z, then y, then x) gets
+///    bit 26, and the codes compare at the same axis in the same direction.
+///    A frame's rays span at most 2 max_range_m / resolution_m + 1 keys per axis (243 with the
+///    defaults); with the walk's margin of 2 on each side, at most 256 always fit.
 struct VoxelCodeLayout {
   bool windowed = false;
   /// Bits a code uses.
@@ -81,8 +83,9 @@ inline uint64_t toMortonCode(const VoxelCodeLayout& layout, uint64_t code) {
 /// The voxels that tree.computeRayKeys(origin, end, ray) lists, as codes, in the same order, one
 /// per next(): from the origin's voxel up to, excluding, the end voxel; none when both are in one
 /// voxel. origin_key and end_key must be tree.coordToKeyChecked of origin and end, and the layout
-/// must cover both with a margin of 2 keys per side (the walk may step one voxel past the end
-/// voxel's slab when the end lies within rounding of a voxel face; it stops there).
+/// must cover both with a margin of 2 keys per side: like computeRayKeys, the walk may step one
+/// voxel past the end voxel's slab when the end lies within rounding of a voxel face, and stops
+/// there (never more than one in 4 million probe rays with ends on voxel faces).
 ///
 /// The arithmetic is computeRayKeys' (OcTreeBaseImpl.hxx, Amanatides & Woo), operation for
 /// operation and type for type: float direction and length, double tMax / tDelta, the same tie
