@@ -6,7 +6,10 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <utility>
+
+#include "mapping/voxel_codes.h"
 
 namespace twocam::mapping {
 namespace {
@@ -27,48 +30,32 @@ octomap::point3d toOctomap(const Eigen::Vector3d& p) {
   return {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())};
 }
 
-/// Spreads the 16 bits of v to every third bit (bit i -> bit 3 i).
-uint64_t spreadBits(uint64_t v) {
-  v &= 0xFFFFU;
-  v = (v | (v << 16U)) & 0x0000FF0000FFULL;
-  v = (v | (v << 8U)) & 0x00F00F00F00FULL;
-  v = (v | (v << 4U)) & 0x0C30C30C30C3ULL;
-  v = (v | (v << 2U)) & 0x249249249249ULL;
-  return v;
-}
-
-/// Morton code of a key with OctoMap's child numbering (x -> bit 0, y -> bit 1, z -> bit 2 of
-/// the child index): sorted codes list each subtree's keys contiguously, and the child index
-/// at tree depth d is (code >> 3 (15 - d)) & 7.
-uint64_t morton(const octomap::OcTreeKey& k) {
-  return spreadBits(k[0]) | (spreadBits(k[1]) << 1U) | (spreadBits(k[2]) << 2U);
-}
-
 // An update is (morton code << 1) | hit: sorting puts a voxel's miss right before its hit.
 constexpr uint64_t kHitFlag = 1U;
 
-/// Sorts `v` ascending: LSD radix sort on the 49 bits an update uses (48-bit Morton code and the
-/// hit flag), five passes of 11 bits, the buffers reused from frame to frame. The same order as
-/// std::sort (equal updates are equal values), so the same map (tested byte for byte against
-/// OctoMap's own updates); faster for the thousands of updates of a frame (docs/mapping.md).
-void radixSortUpdates(std::vector<uint64_t>* v,
+/// Sorts `v` ascending: LSD radix sort on the low `bits` bits of the updates (the others are
+/// zero), in 11-bit passes, the buffers reused from frame to frame. The same order as std::sort
+/// (equal updates are equal values), so the same map (tested byte for byte against OctoMap's own
+/// updates); faster for the thousands of updates of a frame (docs/mapping.md).
+void radixSortUpdates(unsigned bits,
+                      std::vector<uint64_t>* v,
                       std::vector<uint64_t>* scratch,
                       std::vector<uint32_t>* histograms) {
-  constexpr int kBits = 11;
-  constexpr int kPasses = 5;  // 55 >= 49 bits
+  constexpr unsigned kBits = 11;
   constexpr size_t kBuckets = size_t{1} << kBits;
+  const unsigned passes = (bits + kBits - 1U) / kBits;
   const size_t n = v->size();
   if (n < 2) return;
   scratch->resize(n);
   std::vector<uint32_t>& counts = *histograms;
-  counts.assign(kBuckets * kPasses, 0);
+  counts.assign(kBuckets * passes, 0);
   for (const uint64_t x : *v) {
-    for (int p = 0; p < kPasses; ++p)
+    for (unsigned p = 0; p < passes; ++p)
       ++counts[p * kBuckets + ((x >> (p * kBits)) & (kBuckets - 1))];
   }
   uint64_t* src = v->data();
   uint64_t* dst = scratch->data();
-  for (int p = 0; p < kPasses; ++p) {
+  for (unsigned p = 0; p < passes; ++p) {
     uint32_t* c = counts.data() + p * kBuckets;
     if (c[(src[0] >> (p * kBits)) & (kBuckets - 1)] == n)
       continue;  // one digit value: nothing to do
@@ -83,6 +70,15 @@ void radixSortUpdates(std::vector<uint64_t>* v,
   }
   if (src != v->data()) std::copy(src, src + n, v->data());
 }
+
+/// Multiplicative hash of a code to `bits` bits (Fibonacci hashing: the golden-ratio multiplier
+/// spreads neighbouring codes over the table).
+size_t hashCode(uint64_t code, unsigned bits) {
+  return static_cast<size_t>((code * 0x9E3779B97F4A7C15ULL) >> (64U - bits));
+}
+
+/// Marks a table slot as empty: no code has all bits set (codes use at most 48).
+constexpr uint64_t kNoCode = ~uint64_t{0};
 
 /// Applies sorted, de-duplicated updates [begin, end) under `node` at `depth` in one descent:
 /// each touched node is visited once, inner occupancies are refreshed and nodes pruned on the
@@ -162,9 +158,10 @@ void OccupancyMapper::insertFrame(const Eigen::Vector3d& camera_origin_w,
       << "camera origin " << camera_origin_w.transpose() << " is outside the octree";
 
   ++stats_.frames;
-  end_codes_.clear();
-  updates_.clear();
-  octomap::OcTreeKey first_end_key;
+  // The frame's end points and the key range of its rays, which picks the code layout.
+  ends_.clear();
+  octomap::OcTreeKey lo = origin_key;
+  octomap::OcTreeKey hi = origin_key;
   const double max_range_sq = options_.max_range_m * options_.max_range_m;
   for (const Eigen::Vector3d& p_w : points_w) {
     if (!p_w.allFinite()) {
@@ -182,28 +179,90 @@ void OccupancyMapper::insertFrame(const Eigen::Vector3d& camera_origin_w,
       continue;
     }
     ++stats_.points_inserted;
-    const uint64_t code = morton(end_key);
-    // Discretised update (as OctoMap's insertPointCloud(..., discretize = true)): one ray per
-    // distinct end voxel. A frame holds some hundred landmarks, for which a linear scan of
-    // this frame's end voxels is cheaper than a hash set.
-    if (std::find(end_codes_.begin(), end_codes_.end(), code) != end_codes_.end()) continue;
-    if (end_codes_.empty()) first_end_key = end_key;
-    end_codes_.push_back(code);
+    ends_.push_back({end, end_key});
+    for (unsigned i = 0; i < 3; ++i) {
+      lo[i] = std::min(lo[i], end_key[i]);
+      hi[i] = std::max(hi[i], end_key[i]);
+    }
+  }
+  // RayCodeWalk needs 2 keys of margin around the rays' end voxels; at the edge of the key space
+  // (1.6 km away at 5 cm) the full layout does without.
+  constexpr unsigned kRayMargin = 2;
+  bool inside = true;
+  for (unsigned i = 0; i < 3; ++i) {
+    inside = inside && lo[i] >= kRayMargin && hi[i] + kRayMargin <= 0xFFFFU;
+    lo[i] = static_cast<octomap::key_type>(std::max<unsigned>(lo[i], kRayMargin) - kRayMargin);
+    hi[i] = static_cast<octomap::key_type>(std::min<unsigned>(hi[i] + kRayMargin, 0xFFFFU));
+  }
+  const std::optional<VoxelCodeLayout> windowed =
+      inside ? windowedCodeLayout(lo, hi) : std::nullopt;
+  const VoxelCodeLayout layout = windowed ? *windowed : fullCodeLayout();
+
+  // Discretised update (as OctoMap's insertPointCloud(..., discretize = true)): one ray per
+  // distinct end voxel, the first point's. The end voxels seen so far are an open-addressing
+  // hash set (linear probing, at most half full).
+  unsigned end_bits = 6;
+  while ((size_t{1} << end_bits) < 2 * ends_.size()) ++end_bits;
+  end_table_.assign(size_t{1} << end_bits, kNoCode);
+  const size_t end_slot_mask = end_table_.size() - 1;
+  // Rays from one origin share their first voxels: a direct-mapped cache of recent miss codes
+  // drops most repeats before the sort (a code found there was pushed already; one evicted is
+  // pushed again and removed after the sort, so the result does not depend on the cache).
+  free_cache_.assign(size_t{1} << kFreeCacheBits, kNoCode);
+  updates_.clear();
+  rays_.clear();
+  for (const EndPoint& e : ends_) {
+    const uint64_t code = encodeKey(layout, e.key);
+    size_t slot = hashCode(code, end_bits);
+    while (end_table_[slot] != kNoCode && end_table_[slot] != code)
+      slot = (slot + 1) & end_slot_mask;
+    if (end_table_[slot] == code) continue;
+    end_table_[slot] = code;
     updates_.push_back((code << 1U) | kHitFlag);
-    // computeRayKeys lists the voxels from the origin's up to, excluding, the end voxel.
-    if (options_.insert_free_space && tree_.computeRayKeys(origin, end, ray_)) {
-      for (const octomap::OcTreeKey& k : ray_) updates_.push_back(morton(k) << 1U);
+    rays_.push_back(&e);
+  }
+  if (options_.insert_free_space) {
+    const auto push_miss = [this](uint64_t c) {
+      uint64_t& cached = free_cache_[hashCode(c, kFreeCacheBits)];
+      if (cached == c) return;
+      cached = c;
+      updates_.push_back(c << 1U);
+    };
+    // Two walks at a time, each restarted on the next ray when it ends: one walk is a chain of
+    // dependent steps, two independent chains keep the processor busy.
+    size_t next_ray = 0;
+    const auto start_walk = [&]() {
+      if (next_ray == rays_.size()) return RayCodeWalk();
+      const EndPoint& e = *rays_[next_ray++];
+      return RayCodeWalk(tree_, layout, origin, origin_key, e.point, e.key);
+    };
+    RayCodeWalk a = start_walk();
+    RayCodeWalk b = start_walk();
+    uint64_t code;
+    while (!a.done() || !b.done() || next_ray < rays_.size()) {
+      if (a.next(&code)) {
+        push_miss(code);
+      } else {
+        a = start_walk();
+      }
+      if (b.next(&code)) {
+        push_miss(code);
+      } else {
+        b = start_walk();
+      }
     }
   }
   // One update per voxel: keep the last of each run of equal codes, which is the hit when
-  // the voxel holds a landmark of this frame (a hit wins over a miss).
-  radixSortUpdates(&updates_, &sort_scratch_, &sort_histograms_);
+  // the voxel holds a landmark of this frame (a hit wins over a miss); back to Morton codes
+  // for the descent.
+  radixSortUpdates(layout.bits + 1U, &updates_, &sort_scratch_, &sort_histograms_);
   size_t kept = 0;
   int64_t hits = 0;
   for (size_t i = 0; i < updates_.size(); ++i) {
     if (i + 1 < updates_.size() && (updates_[i + 1] >> 1U) == (updates_[i] >> 1U)) continue;
-    hits += static_cast<int64_t>(updates_[i] & kHitFlag);
-    updates_[kept++] = updates_[i];
+    const uint64_t hit = updates_[i] & kHitFlag;
+    hits += static_cast<int64_t>(hit);
+    updates_[kept++] = (toMortonCode(layout, updates_[i] >> 1U) << 1U) | hit;
   }
   updates_.resize(kept);
   stats_.last_frame_hits = hits;
@@ -212,7 +271,7 @@ void OccupancyMapper::insertFrame(const Eigen::Vector3d& camera_origin_w,
   if (tree_.getRoot() == nullptr) {
     // OctoMap creates the root only through its own update path: a zero update of a voxel
     // that gets its hit below does that (a new node starts at log-odds 0 anyway).
-    tree_.updateNode(first_end_key, 0.0F, true);
+    tree_.updateNode(rays_.front()->key, 0.0F, true);
   }
   updateSubtree(&tree_,
                 tree_.getRoot(),

@@ -63,9 +63,20 @@ class OccupancyMapper {
   MappingOptions options_;
   octomap::OcTree tree_;
   MappingStats stats_;
+  /// A point of the frame that gets a hit (float, as OctoMap's rays use) and its key.
+  struct EndPoint {
+    octomap::point3d point;
+    octomap::OcTreeKey key;
+  };
+  /// Slots (log2) of the cache of recent miss codes (insertFrame): 2^14 x 8 bytes = 128 KB stays
+  /// in L2 and holds most of an office frame's ~14,000 distinct free voxels; with 2^12 more
+  /// repeats reach the sort (office: 1.14 against 1.07 ms per frame in mapping_bench).
+  static constexpr unsigned kFreeCacheBits = 14;
   // Scratch buffers reused across frames so insertFrame does not allocate in steady state.
-  octomap::KeyRay ray_;
-  std::vector<uint64_t> end_codes_;
+  std::vector<EndPoint> ends_;
+  std::vector<const EndPoint*> rays_;  ///< the end points that get a ray (first in their voxel)
+  std::vector<uint64_t> end_table_;
+  std::vector<uint64_t> free_cache_;
   std::vector<uint64_t> updates_;
   std::vector<uint64_t> sort_scratch_;
   std::vector<uint32_t> sort_histograms_;

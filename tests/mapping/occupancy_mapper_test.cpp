@@ -300,6 +300,57 @@ TEST(OccupancyMapper, BatchedUpdateMatchesOctomapPerKeyUpdates) {
   }
 }
 
+/// Expects every leaf of either tree at the same depth and log-odds in the other.
+void expectSameLeaves(const octomap::OcTree& a, const octomap::OcTree& b) {
+  const octomap::OcTree* const trees[2] = {&a, &b};
+  for (int i = 0; i < 2; ++i) {
+    const octomap::OcTree* x = trees[i];
+    const octomap::OcTree* y = trees[1 - i];
+    for (auto it = x->begin_leafs(); it != x->end_leafs(); ++it) {
+      const octomap::OcTreeNode* other = y->search(it.getKey(), it.getDepth());
+      ASSERT_NE(other, nullptr);
+      ASSERT_EQ(y->nodeHasChildren(other), false);
+      ASSERT_EQ(other->getLogOdds(), it->getLogOdds());
+    }
+  }
+  EXPECT_EQ(a.size(), b.size());
+}
+
+TEST(OccupancyMapper, BatchedUpdateMatchesOctomapAcrossKeyBoundariesAndLongRays) {
+  // insertFrame sorts a frame's updates by codes that fit its key range (voxel_codes.h): 27-bit
+  // codes when the rays span less than 256 voxels per axis (max_range_m = 6 m), Morton codes
+  // otherwise (12 m). Origins sit where keys cross multiples of 2^15 (the world origin), 2^8
+  // and 2^11, where the two layouts' orders are easiest to get wrong.
+  const Eigen::Vector3d origins[] = {
+      {0.01, 0.02, 0.03}, {12.8, -0.01, 0.3}, {-12.81, 102.4, -0.02}, {6.4, 6.4, 6.4}};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> across(-0.3, 0.3);
+  for (const double max_range_m : {6.0, 12.0}) {
+    MappingOptions o = defaultOptions();
+    o.max_range_m = max_range_m;
+    OccupancyMapper mapper(o);
+    octomap::OcTree reference(o.resolution_m);
+    reference.setProbHit(o.prob_hit);
+    reference.setProbMiss(o.prob_miss);
+    reference.setClampingThresMin(o.clamp_min);
+    reference.setClampingThresMax(o.clamp_max);
+    reference.setOccupancyThres(o.occupied_threshold);
+    for (const Eigen::Vector3d& base : origins) {
+      for (int frame = 0; frame < 8; ++frame) {
+        const Eigen::Vector3d origin =
+            base + Eigen::Vector3d(across(rng), across(rng), across(rng));
+        std::vector<Eigen::Vector3d> points = randomPoints(rng, 150);
+        for (Eigen::Vector3d& p : points) p = origin + p * (max_range_m / 6.0);
+        mapper.insertFrame(origin, points);
+        referenceInsert(&reference, origin, points, o.max_range_m);
+      }
+    }
+    SCOPED_TRACE("max_range_m " + std::to_string(max_range_m));
+    ASSERT_GT(reference.size(), 10000U);
+    expectSameLeaves(mapper.tree(), reference);
+  }
+}
+
 TEST(OccupancyMapper, OccupiedVoxelsAreSortedAndRepeatable) {
   const MappingOptions o = defaultOptions();
   OccupancyMapper a(o);
