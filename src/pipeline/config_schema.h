@@ -404,7 +404,8 @@ void visitLocalization(O& o, V& v) {
       "the check also tries headings within this many prediction yaw sigmas [-]");
     s("accept_fraction",
       so.accept_fraction,
-      "a searched pose explains at least this fraction of the reference landmarks [-]");
+      "a searched pose explains at least this fraction of the reference landmarks, beyond chance "
+      "[-]");
     s("reference_frames",
       so.reference_frames,
       "the reference: landmarks the last this many visual updates used [-]");
