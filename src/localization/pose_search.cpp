@@ -352,6 +352,9 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
     result.chance_score = chanceMatches(rig, T_w_b_predicted, reference_w, hyps, o);
   }
   const double chance = result.chance_score;
+  // The references chance does not explain; fewer than min_reference of them (texture so dense
+  // that any pose matches nearly all) cannot tell poses apart: the check passes, as with too
+  // few references in view.
   const double room = result.reference - chance;
   if (result.prediction_score - chance >= o.trigger_fraction * room || room < o.min_reference) {
     fitStep(rig, T_w_b_predicted, reference_w, hyps, Pose2{}, &result);
