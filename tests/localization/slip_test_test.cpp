@@ -101,9 +101,10 @@ TEST(SlipTest, TheOdometryNoiseIsTheMeasuredMotionsNotTheSlipsOwn) {
   const Pose2 straight{0.03, 0.0, 0.0};  // a step of 3 cm
   const Pose2 slipped{0.04, 0.0, 1.5 * kDeg};
   const Pose2 correction{-0.01, 0.0, -1.5 * kDeg};  // what the references measure
+  // The fit's covariance, and the previous estimate's the same.
   const Eigen::Matrix3d fit =
       Eigen::Vector3d(1e-6, 1e-6, std::pow(0.03 * kDeg, 2)).asDiagonal().toDenseMatrix();
-  const Eigen::Matrix3d previous = fit;
+  const Eigen::Matrix3d& previous = fit;
   const Eigen::Matrix3d over_motion = stepCovariance(model, slipped, correction, previous, fit);
   const Eigen::Matrix3d over_increment = stepCovariance(model, slipped, Pose2{}, previous, fit);
   EXPECT_LT(std::sqrt(over_motion(2, 2)), 0.15 * kDeg);
