@@ -115,6 +115,21 @@ void PoseSearch::buildGrid(const StereoRig& rig, const StereoHypotheses& hyps) {
   stamp_ = 0;
 }
 
+template <typename Fn>
+void PoseSearch::forEachPointInCells(double u0, double u1, double v0, double v1, Fn&& fn) const {
+  const int c0 = std::max(0, static_cast<int>(std::floor(u0 / kCellPx)));
+  const int c1 = std::min(cols_ - 1, static_cast<int>(std::floor(u1 / kCellPx)));
+  const int r0 = std::max(0, static_cast<int>(std::floor(v0 / kCellPx)));
+  const int r1 = std::min(rows_ - 1, static_cast<int>(std::floor(v1 / kCellPx)));
+  for (int r = r0; r <= r1; ++r) {
+    for (int c = c0; c <= c1; ++c) {
+      const size_t cell =
+          static_cast<size_t>(r) * static_cast<size_t>(cols_) + static_cast<size_t>(c);
+      for (uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) fn(cell_points_[k]);
+    }
+  }
+}
+
 int PoseSearch::scoreMatches(const StereoRig& rig,
                              const Eigen::Isometry3d& T_w_b,
                              const std::vector<Eigen::Vector3d>& reference_w,
@@ -136,38 +151,29 @@ int PoseSearch::scoreMatches(const StereoRig& rig,
     if (pr.u < 0.0 || pr.v < 0.0 || pr.u > rig.width_px - 1.0 || pr.v > rig.height_px - 1.0)
       continue;
     ++visible;
-    const int c0 = std::max(0, static_cast<int>(std::floor((pr.u - o.match_px) / kCellPx)));
-    const int c1 = std::min(cols_ - 1, static_cast<int>(std::floor((pr.u + o.match_px) / kCellPx)));
-    const int r0 = std::max(0, static_cast<int>(std::floor((pr.v - o.match_px) / kCellPx)));
-    const int r1 = std::min(rows_ - 1, static_cast<int>(std::floor((pr.v + o.match_px) / kCellPx)));
     double best = o.match_px * o.match_px * 2.0 + 1.0;
     int64_t best_point = -1;
-    for (int r = r0; r <= r1; ++r) {
-      for (int c = c0; c <= c1; ++c) {
-        const size_t cell =
-            static_cast<size_t>(r) * static_cast<size_t>(cols_) + static_cast<size_t>(c);
-        for (uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-          const uint32_t pi = cell_points_[k];
-          if (claimed_[pi] == stamp_) continue;
+    forEachPointInCells(
+        pr.u - o.match_px,
+        pr.u + o.match_px,
+        pr.v - o.match_px,
+        pr.v + o.match_px,
+        [&](uint32_t pi) {
+          if (claimed_[pi] == stamp_) return;
           const SalientPoint& sp = hyps.points[pi];
           const double du = sp.corner.u_px - pr.u;
           const double dv = sp.corner.v_px - pr.v;
-          if (std::abs(du) > o.match_px || std::abs(dv) > o.match_px) continue;
+          if (std::abs(du) > o.match_px || std::abs(dv) > o.match_px) return;
           const double dist2 = du * du + dv * dv;
-          if (dist2 >= best) continue;
-          bool depth_ok = false;
+          if (dist2 >= best) return;
           for (uint32_t h = sp.first_hypothesis; h < sp.first_hypothesis + sp.num_hypotheses; ++h) {
             if (std::abs(hyps.hypotheses[h].d_px - pr.d) <= o.match_disparity_px) {
-              depth_ok = true;
-              break;
+              best = dist2;
+              best_point = pi;
+              return;
             }
           }
-          if (!depth_ok) continue;
-          best = dist2;
-          best_point = pi;
-        }
-      }
-    }
+        });
     if (best_point < 0) continue;
     claimed_[static_cast<size_t>(best_point)] = stamp_;
     ++count;
@@ -303,28 +309,18 @@ double PoseSearch::chanceMatches(const StereoRig& rig,
     const double ring_area = (u1 - u0 + 1.0) * (v1 - v0 + 1.0) - window_area;
     if (ring_area <= 0.0) continue;
     int in_ring = 0;
-    const int c0 = std::max(0, static_cast<int>(std::floor(u0 / kCellPx)));
-    const int c1 = std::min(cols_ - 1, static_cast<int>(std::floor(u1 / kCellPx)));
-    const int r0 = std::max(0, static_cast<int>(std::floor(v0 / kCellPx)));
-    const int r1 = std::min(rows_ - 1, static_cast<int>(std::floor(v1 / kCellPx)));
-    for (int r = r0; r <= r1; ++r) {
-      for (int c = c0; c <= c1; ++c) {
-        const size_t cell =
-            static_cast<size_t>(r) * static_cast<size_t>(cols_) + static_cast<size_t>(c);
-        for (uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-          const SalientPoint& sp = hyps.points[cell_points_[k]];
-          const double u = sp.corner.u_px, v = sp.corner.v_px;
-          if (u < u0 || u > u1 || v < v0 || v > v1) continue;
-          if (u >= mu0 && u <= mu1 && v >= mv0 && v <= mv1) continue;
-          for (uint32_t h = sp.first_hypothesis; h < sp.first_hypothesis + sp.num_hypotheses; ++h) {
-            if (std::abs(hyps.hypotheses[h].d_px - pr.d) <= o.match_disparity_px) {
-              ++in_ring;
-              break;
-            }
-          }
+    forEachPointInCells(u0, u1, v0, v1, [&](uint32_t pi) {
+      const SalientPoint& sp = hyps.points[pi];
+      const double u = sp.corner.u_px, v = sp.corner.v_px;
+      if (u < u0 || u > u1 || v < v0 || v > v1) return;
+      if (u >= mu0 && u <= mu1 && v >= mv0 && v <= mv1) return;
+      for (uint32_t h = sp.first_hypothesis; h < sp.first_hypothesis + sp.num_hypotheses; ++h) {
+        if (std::abs(hyps.hypotheses[h].d_px - pr.d) <= o.match_disparity_px) {
+          ++in_ring;
+          return;
         }
       }
-    }
+    });
     expected += 1.0 - std::exp(-in_ring * window_area / ring_area);
   }
   return sampled > 0 ? expected * visible / sampled : 0.0;
@@ -477,34 +473,22 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
     const double range_tol = o.max_slip_m * std::sqrt(2.0) + depth_err + kPositionSlackM;
     const double range_ref = p_b.head<2>().norm();
     const auto begin = static_cast<uint32_t>(candidates_.size());
-    const int c0 = std::max(0, static_cast<int>(std::floor(u0 / kCellPx)));
-    const int c1 = std::min(cols_ - 1, static_cast<int>(std::floor(u1 / kCellPx)));
-    const int r0 = std::max(0, static_cast<int>(std::floor(v0 / kCellPx)));
-    const int r1 = std::min(rows_ - 1, static_cast<int>(std::floor(v1 / kCellPx)));
-    for (int r = r0; r <= r1; ++r) {
-      for (int c = c0; c <= c1; ++c) {
-        const size_t cell =
-            static_cast<size_t>(r) * static_cast<size_t>(cols_) + static_cast<size_t>(c);
-        for (uint32_t m = cell_start_[cell]; m < cell_start_[cell + 1]; ++m) {
-          const uint32_t pi = cell_points_[m];
-          const SalientPoint& sp = hyps.points[pi];
-          if (sp.corner.u_px < u0 || sp.corner.u_px > u1 || sp.corner.v_px < v0 ||
-              sp.corner.v_px > v1)
-            continue;
-          for (uint32_t h = sp.first_hypothesis; h < sp.first_hypothesis + sp.num_hypotheses; ++h) {
-            const double d = hyps.hypotheses[h].d_px;
-            if (d < d0 || d > d1 || d <= 0.0) continue;
-            const std::optional<Eigen::Vector3d> p_cl =
-                triangulateRectified(rig, Eigen::Vector2d(sp.corner.u_px, sp.corner.v_px), d);
-            if (!p_cl) continue;
-            const Eigen::Vector3d q_b = rig.T_b_cl * *p_cl;
-            if (std::abs(q_b.z() - p_b.z()) > height_tol) continue;
-            if (std::abs(q_b.head<2>().norm() - range_ref) > range_tol) continue;
-            candidates_.push_back({q_b, pi});
-          }
-        }
+    forEachPointInCells(u0, u1, v0, v1, [&](uint32_t pi) {
+      const SalientPoint& sp = hyps.points[pi];
+      if (sp.corner.u_px < u0 || sp.corner.u_px > u1 || sp.corner.v_px < v0 || sp.corner.v_px > v1)
+        return;
+      for (uint32_t h = sp.first_hypothesis; h < sp.first_hypothesis + sp.num_hypotheses; ++h) {
+        const double d = hyps.hypotheses[h].d_px;
+        if (d < d0 || d > d1 || d <= 0.0) continue;
+        const std::optional<Eigen::Vector3d> p_cl =
+            triangulateRectified(rig, Eigen::Vector2d(sp.corner.u_px, sp.corner.v_px), d);
+        if (!p_cl) continue;
+        const Eigen::Vector3d q_b = rig.T_b_cl * *p_cl;
+        if (std::abs(q_b.z() - p_b.z()) > height_tol) continue;
+        if (std::abs(q_b.head<2>().norm() - range_ref) > range_tol) continue;
+        candidates_.push_back({q_b, pi});
       }
-    }
+    });
     // No candidate, or so many that the landmark's votes would be noise (a dense cluster of
     // points: it costs its square in votes and adds no information).
     if (candidates_.size() == begin || candidates_.size() - begin > kMaxCandidatesPerReference) {

@@ -121,6 +121,10 @@ class PoseSearch {
     uint32_t point;
   };
   void buildGrid(const StereoRig& rig, const StereoHypotheses& hyps);
+  /// Calls fn(point index) for every salient point in the grid cells that overlap the pixel
+  /// box [u0, u1] x [v0, v1], cell by cell in row order; callers test the exact bounds.
+  template <typename Fn>
+  void forEachPointInCells(double u0, double u1, double v0, double v1, Fn&& fn) const;
   /// One-to-one matches of the reference landmarks at pose T_w_b: per landmark, in input order,
   /// the nearest untaken salient point within match_px whose hypotheses hold one within
   /// match_disparity_px. Returns the count; in_view and matches (reference index, point) are
