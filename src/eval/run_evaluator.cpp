@@ -166,7 +166,8 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
   csv << std::setprecision(9)
       << "frame,t_s,visual,landmarks_used,slip_flagged,odometry_error_m,estimate_error_m,searched,"
          "search_accepted,search_reference,search_prediction_score,search_chance_score,"
-         "search_best_score,search_rival_score,search_dx_m,search_dy_m,search_dyaw_deg,reanchor_"
+         "search_best_score,search_best_reference,search_best_chance_score,search_rival_score,"
+         "search_dx_m,search_dy_m,search_dyaw_deg,reanchor_"
          "reference,"
          "reanchored\n";
   size_t next_flag = 0;
@@ -193,10 +194,11 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
         i < s.search_figures.size() ? s.search_figures[i] : pipeline::RunSummary::SearchFigures{};
     csv << ',' << f.reference << ',' << f.prediction_score << ',' << f.chance_score;
     if (search >= 1) {
-      csv << ',' << f.best_score << ',' << f.rival_score << ',' << f.correction.x_m << ','
-          << f.correction.y_m << ',' << f.correction.yaw_rad * 180.0 / M_PI;
+      csv << ',' << f.best_score << ',' << f.best_reference << ',' << f.best_chance_score << ','
+          << f.rival_score << ',' << f.correction.x_m << ',' << f.correction.y_m << ','
+          << f.correction.yaw_rad * 180.0 / M_PI;
     } else {
-      csv << ",,,,,";
+      csv << ",,,,,,,";
     }
     csv << ',' << f.reanchor_reference << ',' << (f.reanchored ? 1 : 0) << '\n';
   }

@@ -10,8 +10,7 @@
 ///     match_px / match_disparity_px (each salient point explains at most one landmark). When at
 ///     least trigger_fraction of those in view match, the prediction holds: no search. Counts
 ///     and shares are taken beyond chance (chanceMatches: on dense texture a match window
-///     holds a salient point with the right disparity at any pose), against the recent
-///     reference; against the earlier map the raw counts are kept.
+///     holds a salient point with the right disparity at any pose).
 ///     Otherwise headings within local_sigmas x the prediction's yaw sigma are tried; the best
 ///     one's matches measure the step (below) and set the bar the search must clear, and the
 ///     search runs only when a winner could clear it (win_ratio x those matches, at most every
@@ -26,11 +25,16 @@
 ///     rigid pair votes for its pose error in a histogram of vote_m x vote_m x vote_deg bins.
 ///  4. Scores. The fullest bins' poses are scored as in step 1, one-to-one, refined by a planar
 ///     least-squares fit to their matches and scored again; the best is refined further by the
-///     step fit (pixels and disparity) while it explains more. It is accepted when it
+///     step fit (pixels and disparity) while it explains more; a refit outside the box is not
+///     taken (nothing was searched there). It is accepted when it
 ///     explains at least min_matches and at least win_ratio x as many landmarks as the
 ///     prediction or the best heading did (and at least accept_fraction of the landmarks in
-///     view), all beyond chance, and no pose two bins or more away reaches ambiguity_ratio of its
-///     matches with matches of its own (those it does not share with the winner).
+///     its view), all beyond chance, and no pose two bins or more away reaches ambiguity_ratio
+///     of its matches with matches of its own (those it does not share with the winner). The
+///     winner's chance is the prediction's per reference in view times the references in view
+///     of the winner: a pose turned towards more references draws more chance matches, and at
+///     the right pose the ring round each projection holds its neighbours' true corners, so the
+///     density there would count real structure as chance.
 ///
 /// With WideSearch::kAfterHeadingSweep, steps 2-4 run only when a heading alone would pass the
 /// check (for references that often fail it without the pose being wrong), a heading within
@@ -68,6 +72,10 @@ struct PoseSearchResult {
   /// winner the acceptance tests judged).
   int best_score = 0;
   Pose2 best_correction;
+  /// Searched with WideSearch::kAlways: the reference landmarks in view of that pose and the
+  /// matches chance alone would give there; its acceptance counts beyond them (else 0).
+  int best_reference = 0;
+  double best_chance_score = 0.0;
   /// Planar pose error found, in the predicted body frame: T_w_b = T_w_b_pred * correction.
   Pose2 correction;
   Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();  ///< the pose to predict with

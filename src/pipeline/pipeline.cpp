@@ -116,7 +116,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     out->searched = out->search_accepted = false;
     out->search_reference = out->search_prediction_score = 0;
     out->search_chance_score = 0.0;
-    out->search_best_score = out->search_rival_score = 0;
+    out->search_best_score = out->search_rival_score = out->search_best_reference = 0;
+    out->search_best_chance_score = 0.0;
     out->search_correction = Pose2{};
     out->reanchored = false;
     out->reanchor_reference = 0;
@@ -137,6 +138,8 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       out->search_accepted = sr.accepted;
       out->search_best_score = sr.best_score;
       out->search_rival_score = sr.rival_score;
+      out->search_best_reference = sr.best_reference;
+      out->search_best_chance_score = sr.best_chance_score;
       out->search_correction = sr.best_correction;
       prediction.T_w_b = sr.T_w_b;
       // The reference is what the last frames saw: after a slip that went unnoticed (a blank

@@ -69,6 +69,10 @@ struct FrameOutput {
   /// of the prediction (PoseSearchResult::best_score, rival_score, best_correction).
   int search_best_score = 0;
   int search_rival_score = 0;
+  /// Searched against the recent reference: the references in view of the best searched pose
+  /// and its chance matches (PoseSearchResult::best_reference, best_chance_score).
+  int search_best_reference = 0;
+  double search_best_chance_score = 0.0;
   Pose2 search_correction;
   /// Fused: the earlier map's landmarks the last frame predicted in view but did not associate
   /// (the re-anchoring check's reference, in view of this frame's prediction), and whether the

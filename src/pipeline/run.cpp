@@ -98,6 +98,8 @@ Status Run::execute(const FrameSource& next,
                                   fo.search_chance_score,
                                   fo.search_best_score,
                                   fo.search_rival_score,
+                                  fo.search_best_reference,
+                                  fo.search_best_chance_score,
                                   fo.search_correction,
                                   fo.reanchor_reference,
                                   fo.reanchored});

@@ -83,6 +83,8 @@ struct RunSummary {
     double chance_score = 0.0;  ///< FrameOutput::search_chance_score
     int best_score = 0;
     int rival_score = 0;
+    int best_reference = 0;          ///< FrameOutput::search_best_reference
+    double best_chance_score = 0.0;  ///< FrameOutput::search_best_chance_score
     Pose2 correction;
     int reanchor_reference = 0;  ///< FrameOutput::reanchor_reference
     bool reanchored = false;     ///< FrameOutput::reanchored
