@@ -53,6 +53,16 @@ Status PoseSearchOptions::validate(const char* prefix) const {
   if (Status s = checkRange(p + "win_ratio", win_ratio, 1.0, 100.0); !s) return s;
   if (Status s = checkRange(p + "vote_m", vote_m, 1e-3, max_slip_m, "m"); !s) return s;
   if (Status s = checkRange(p + "vote_deg", vote_deg, 0.01, max_slip_deg, "deg"); !s) return s;
+  const int64_t span_t = 2 * votePositionHalfBins() + 1;
+  const int64_t bins = span_t * span_t * (2 * voteHeadingHalfBins() + 1);
+  if (bins > kMaxVoteBins) {
+    return Status::error(p + "vote_m = " + std::to_string(vote_m) + " and " + p +
+                         "vote_deg = " + std::to_string(vote_deg) +
+                         " over max_slip_m = " + std::to_string(max_slip_m) +
+                         " and max_slip_deg = " + std::to_string(max_slip_deg) + " give " +
+                         std::to_string(bins) + " vote bins; at most " +
+                         std::to_string(kMaxVoteBins) + " (coarser bins or a smaller search box)");
+  }
   return checkRange(p + "scored_bins", scored_bins, 1, 1000);
 }
 

@@ -2,6 +2,8 @@
 /// Options of the visual pose correction (localization/pose_update.h). Model and defaults:
 /// docs/localization.md.
 
+#include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -122,9 +124,18 @@ struct PoseSearchOptions {
   /// office_loops and garden were found with 26 matches and more.
   int min_matches = 20;
   double win_ratio = 2.0;
-  /// Vote histogram bins: position [m] and heading [deg].
+  /// Vote histogram bins: position [m] and heading [deg]. The histogram spans the box,
+  /// votePositionHalfBins() and voteHeadingHalfBins() on either side of zero, at most
+  /// kMaxVoteBins bins in all (validate()).
   double vote_m = 0.02;
   double vote_deg = 0.5;
+  static constexpr int64_t kMaxVoteBins = int64_t{1} << 22;
+  [[nodiscard]] int64_t votePositionHalfBins() const {
+    return static_cast<int64_t>(std::ceil(max_slip_m / vote_m));
+  }
+  [[nodiscard]] int64_t voteHeadingHalfBins() const {
+    return static_cast<int64_t>(std::ceil(max_slip_deg / vote_deg));
+  }
   /// Bins scored [-].
   int scored_bins = 12;
 

@@ -502,11 +502,14 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
 
   // Votes of rigid pairs: landmark i with i + n/2 and i + n/3 (in the order of the reference
   // list, which follows the database's), every candidate combination.
+  // A vote lies inside the box, so a dense histogram over it counts them (kMaxVoteBins bins at
+  // most, PoseSearchOptions::validate) instead of sorting up to kMaxVotes of them.
   const double bin_yaw = o.vote_deg * kDegToRad;
-  const auto nbin_t = static_cast<int64_t>(std::ceil(o.max_slip_m * 1.5 / o.vote_m));
-  const auto nbin_yaw = static_cast<int64_t>(std::ceil(max_yaw * 1.5 / bin_yaw));
+  const int64_t nbin_t = o.votePositionHalfBins();
+  const int64_t nbin_yaw = o.voteHeadingHalfBins();
   const int64_t span_t = 2 * nbin_t + 1;
-  votes_.clear();
+  votes_.assign(static_cast<size_t>(span_t * span_t * (2 * nbin_yaw + 1)), 0);
+  size_t n_votes = 0;
   const size_t offsets[2] = {std::max<size_t>(1, n_refs / 2), std::max<size_t>(1, n_refs / 3)};
   for (size_t i = 0; i < n_refs; ++i) {
     for (size_t off : offsets) {
@@ -536,19 +539,18 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
           const int64_t bx = std::llround(t.x() / o.vote_m) + nbin_t;
           const int64_t by = std::llround(t.y() / o.vote_m) + nbin_t;
           const int64_t byaw = std::llround(yaw / bin_yaw) + nbin_yaw;
-          if (votes_.size() < kMaxVotes) votes_.push_back((byaw * span_t + by) * span_t + bx);
+          if (n_votes < kMaxVotes) {
+            ++votes_[static_cast<size_t>((byaw * span_t + by) * span_t + bx)];
+            ++n_votes;
+          }
         }
       }
     }
   }
-  if (votes_.empty()) return result;
-  std::sort(votes_.begin(), votes_.end());
+  if (n_votes == 0) return result;
   std::vector<std::pair<int, int64_t>> bins;  // (-count, key): fullest first, then by key
-  for (size_t k = 0; k < votes_.size();) {
-    size_t e = k;
-    while (e < votes_.size() && votes_[e] == votes_[k]) ++e;
-    bins.emplace_back(-static_cast<int>(e - k), votes_[k]);
-    k = e;
+  for (size_t k = 0; k < votes_.size(); ++k) {
+    if (votes_[k] > 0) bins.emplace_back(-static_cast<int>(votes_[k]), static_cast<int64_t>(k));
   }
   const size_t keep = std::min(bins.size(), static_cast<size_t>(o.scored_bins));
   std::partial_sort(bins.begin(), bins.begin() + static_cast<std::ptrdiff_t>(keep), bins.end());

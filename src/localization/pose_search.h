@@ -171,7 +171,7 @@ class PoseSearch {
   uint32_t stamp_ = 0;
   std::vector<Candidate> candidates_;
   std::vector<uint32_t> candidate_start_;  // per reference landmark used
-  std::vector<int64_t> votes_;
+  std::vector<uint32_t> votes_;            // the vote histogram
   std::vector<std::pair<int, uint32_t>> matches_;
   std::vector<std::pair<int, uint32_t>> tried_matches_;  // the scored bins' matches
   static constexpr uint32_t kNoPoint = 0xFFFFFFFFU;

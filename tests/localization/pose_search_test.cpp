@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "common/rig.h"
@@ -441,6 +442,16 @@ TEST(PoseSearch, OptionsNameTheBrokenKey) {
   o = PoseSearchOptions{};
   o.vote_m = 2.0 * o.max_slip_m;
   EXPECT_FALSE(o.validate());
+  // A histogram too fine for its box (4 001^2 position bins): refused, naming both keys.
+  o = PoseSearchOptions{};
+  o.max_slip_m = 2.0;
+  o.vote_m = 0.001;
+  const Status fine = o.validate("localization.search.");
+  ASSERT_FALSE(fine);
+  EXPECT_NE(fine.message().find("localization.search.vote_m"), std::string::npos) << fine.message();
+  EXPECT_NE(fine.message().find("vote bins"), std::string::npos) << fine.message();
+  o.vote_m = 0.05;  // 81^2 x 49 bins
+  EXPECT_TRUE(o.validate());
 }
 
 }  // namespace
