@@ -529,11 +529,16 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
           const Eigen::Vector2d qi = candidates_[a].q_b.head<2>();
           const Eigen::Vector2d qj = candidates_[b].q_b.head<2>();
           const Eigen::Vector2d dq = qi - qj;
-          if (std::abs(dq.norm() - len_p) > len_tol) continue;
-          const double yaw =
-              std::atan2(dq.x() * dp.y() - dq.y() * dp.x(), dq.x() * dp.x() + dq.y() * dp.y());
+          const double len_q = dq.norm();
+          if (!(len_q > 0.0) || std::abs(len_q - len_p) > len_tol) continue;
+          const double cross = dq.x() * dp.y() - dq.y() * dp.x();
+          const double dot = dq.x() * dp.x() + dq.y() * dp.y();
+          const double yaw = std::atan2(cross, dot);
           if (std::abs(yaw) > max_yaw) continue;
-          const Eigen::Rotation2Dd R(yaw);
+          // The rotation from the pair's directions (its cosine and sine without sincos).
+          Eigen::Matrix2d R;
+          const double inv = 1.0 / (len_q * len_p);
+          R << dot * inv, -cross * inv, cross * inv, dot * inv;
           const Eigen::Vector2d t = 0.5 * ((pi - R * qi) + (pj - R * qj));
           if (std::abs(t.x()) > o.max_slip_m || std::abs(t.y()) > o.max_slip_m) continue;
           const int64_t bx = std::llround(t.x() / o.vote_m) + nbin_t;
