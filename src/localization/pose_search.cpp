@@ -508,6 +508,7 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
   const int64_t nbin_t = o.votePositionHalfBins();
   const int64_t nbin_yaw = o.voteHeadingHalfBins();
   const int64_t span_t = 2 * nbin_t + 1;
+  const double tan_max_yaw = std::tan(max_yaw);
   votes_.assign(static_cast<size_t>(span_t * span_t * (2 * nbin_yaw + 1)), 0);
   size_t n_votes = 0;
   const size_t offsets[2] = {std::max<size_t>(1, n_refs / 2), std::max<size_t>(1, n_refs / 3)};
@@ -533,14 +534,16 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
           if (!(len_q > 0.0) || std::abs(len_q - len_p) > len_tol) continue;
           const double cross = dq.x() * dp.y() - dq.y() * dp.x();
           const double dot = dq.x() * dp.x() + dq.y() * dp.y();
-          const double yaw = std::atan2(cross, dot);
-          if (std::abs(yaw) > max_yaw) continue;
+          // |heading| <= max_yaw (under 90 degrees: validate) without the arctangent, which
+          // only the votes kept need.
+          if (!(dot > 0.0) || std::abs(cross) > tan_max_yaw * dot) continue;
           // The rotation from the pair's directions (its cosine and sine without sincos).
           Eigen::Matrix2d R;
           const double inv = 1.0 / (len_q * len_p);
           R << dot * inv, -cross * inv, cross * inv, dot * inv;
           const Eigen::Vector2d t = 0.5 * ((pi - R * qi) + (pj - R * qj));
           if (std::abs(t.x()) > o.max_slip_m || std::abs(t.y()) > o.max_slip_m) continue;
+          const double yaw = std::atan2(cross, dot);
           const int64_t bx = std::llround(t.x() / o.vote_m) + nbin_t;
           const int64_t by = std::llround(t.y() / o.vote_m) + nbin_t;
           const int64_t byaw = std::llround(yaw / bin_yaw) + nbin_yaw;
