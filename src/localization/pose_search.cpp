@@ -69,6 +69,12 @@ bool project(const StereoRig& rig, const Eigen::Vector3d& p_c, Projected* out) {
   return true;
 }
 
+/// project() onto a pixel of the image.
+bool projectInImage(const StereoRig& rig, const Eigen::Vector3d& p_c, Projected* out) {
+  return project(rig, p_c, out) && out->u >= 0.0 && out->v >= 0.0 && out->u <= rig.width_px - 1.0 &&
+         out->v <= rig.height_px - 1.0;
+}
+
 }  // namespace
 
 Pose2 fitPlanar(const std::vector<Eigen::Vector2d>& q, const std::vector<Eigen::Vector2d>& p) {
@@ -147,9 +153,7 @@ int PoseSearch::scoreMatches(const StereoRig& rig,
   int visible = 0;
   for (size_t i = 0; i < reference_w.size(); ++i) {
     Projected pr{};
-    if (!project(rig, T_cl_w * reference_w[i], &pr)) continue;
-    if (pr.u < 0.0 || pr.v < 0.0 || pr.u > rig.width_px - 1.0 || pr.v > rig.height_px - 1.0)
-      continue;
+    if (!projectInImage(rig, T_cl_w * reference_w[i], &pr)) continue;
     ++visible;
     double best = o.match_px * o.match_px * 2.0 + 1.0;
     int64_t best_point = -1;
@@ -291,9 +295,7 @@ double PoseSearch::chanceMatches(const StereoRig& rig,
       std::max<size_t>(1, reference_w.size() / static_cast<size_t>(std::max(1, o.max_reference)));
   for (size_t i = 0; i < reference_w.size(); ++i) {
     Projected pr{};
-    if (!project(rig, T_cl_w * reference_w[i], &pr)) continue;
-    if (pr.u < 0.0 || pr.v < 0.0 || pr.u > rig.width_px - 1.0 || pr.v > rig.height_px - 1.0)
-      continue;
+    if (!projectInImage(rig, T_cl_w * reference_w[i], &pr)) continue;
     ++visible;
     if (i % stride != 0) continue;
     ++sampled;

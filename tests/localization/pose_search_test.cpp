@@ -41,6 +41,42 @@ std::vector<Eigen::Vector3d> scene(std::mt19937& rng, int n) {
   return p;
 }
 
+/// Appends a salient point at (u, v) with the disparity hypotheses `ds`.
+void addPoint(StereoHypotheses* h, int u, int v, const std::vector<float>& ds) {
+  SalientPoint sp;
+  sp.corner.u_px = u;
+  sp.corner.v_px = v;
+  sp.first_hypothesis = static_cast<uint32_t>(h->hypotheses.size());
+  for (float d : ds) {
+    DisparityHypothesis dh;
+    dh.d_px = d;
+    dh.point_index = static_cast<uint32_t>(h->points.size());
+    h->hypotheses.push_back(dh);
+  }
+  sp.num_hypotheses = static_cast<uint32_t>(ds.size());
+  h->points.push_back(sp);
+}
+
+/// Appends `n` clutter points uniform over the image's columns and its rows from `v_min`, each
+/// with two disparities uniform in [d_min, d_max) [px] (drawn in that order: u, v, d, d).
+void addClutter(const StereoRig& r,
+                int n,
+                int v_min,
+                float d_min,
+                float d_max,
+                std::mt19937& rng,
+                StereoHypotheses* h) {
+  std::uniform_int_distribution<int> cu(0, r.width_px - 1), cv(v_min, r.height_px - 1);
+  std::uniform_real_distribution<float> cd(d_min, d_max);
+  for (int i = 0; i < n; ++i) {
+    const int u = cu(rng);
+    const int v = cv(rng);
+    const float d0 = cd(rng);
+    const float d1 = cd(rng);
+    addPoint(h, u, v, {d0, d1});
+  }
+}
+
 /// The frame's hypotheses: each landmark seen from T_w_b_true (whole-pixel corner, its true
 /// disparity and a rival), plus `clutter` points with random disparities.
 StereoHypotheses frame(const StereoRig& r,
@@ -51,20 +87,7 @@ StereoHypotheses frame(const StereoRig& r,
   StereoHypotheses h;
   const Eigen::Isometry3d T_cl_w = (T_w_b_true * r.T_b_cl).inverse();
   std::uniform_real_distribution<double> rival(2.0, 40.0);
-  const auto add = [&](int u, int v, std::vector<float> ds) {
-    SalientPoint sp;
-    sp.corner.u_px = u;
-    sp.corner.v_px = v;
-    sp.first_hypothesis = static_cast<uint32_t>(h.hypotheses.size());
-    for (float d : ds) {
-      DisparityHypothesis dh;
-      dh.d_px = d;
-      dh.point_index = static_cast<uint32_t>(h.points.size());
-      h.hypotheses.push_back(dh);
-    }
-    sp.num_hypotheses = static_cast<uint32_t>(ds.size());
-    h.points.push_back(sp);
-  };
+  const auto add = [&h](int u, int v, const std::vector<float>& ds) { addPoint(&h, u, v, ds); };
   for (const Eigen::Vector3d& p_w : points_w) {
     const Eigen::Vector3d p_c = T_cl_w * p_w;
     if (p_c.z() < 0.5) continue;
@@ -316,22 +339,7 @@ TEST(PoseSearch, DenseTextureExplainsASlippedPredictionByChanceOnly) {
   const Eigen::Isometry3d T_true = planar(0.2, -0.1, 0.05);
   StereoHypotheses h = frame(r, T_true, points, 0, rng);
   // The lawn's other corners in the image's lower half, disparities of the ground 2-4 m away.
-  std::uniform_int_distribution<int> cu(0, r.width_px - 1), cv(r.height_px / 2, r.height_px - 1);
-  std::uniform_real_distribution<float> cd(15.0F, 25.0F);
-  for (int i = 0; i < 4000; ++i) {
-    SalientPoint sp;
-    sp.corner.u_px = cu(rng);
-    sp.corner.v_px = cv(rng);
-    sp.first_hypothesis = static_cast<uint32_t>(h.hypotheses.size());
-    sp.num_hypotheses = 2;
-    for (int k = 0; k < 2; ++k) {
-      DisparityHypothesis dh;
-      dh.d_px = cd(rng);
-      dh.point_index = static_cast<uint32_t>(h.points.size());
-      h.hypotheses.push_back(dh);
-    }
-    h.points.push_back(sp);
-  }
+  addClutter(r, 4000, r.height_px / 2, 15.0F, 25.0F, rng, &h);
   const PoseSearchOptions o;
   PoseSearch search;
   const PoseSearchResult held = search.run(r, T_true, kCov, points, h, o);
@@ -375,22 +383,7 @@ TEST(PoseSearch, ReferencesTurnedIntoViewAddChanceMatchesNotEvidence) {
       points.emplace_back(d * std::cos(b), d * std::sin(b), height(rng));
     }
     StereoHypotheses h;
-    std::uniform_int_distribution<int> cu(0, r.width_px - 1), cv(0, r.height_px - 1);
-    std::uniform_real_distribution<float> cd(19.0F, 21.0F);  // depths 2.9-3.2 m
-    for (int i = 0; i < 4000; ++i) {
-      SalientPoint sp;
-      sp.corner.u_px = cu(rng);
-      sp.corner.v_px = cv(rng);
-      sp.first_hypothesis = static_cast<uint32_t>(h.hypotheses.size());
-      sp.num_hypotheses = 2;
-      for (int k = 0; k < 2; ++k) {
-        DisparityHypothesis dh;
-        dh.d_px = cd(rng);
-        dh.point_index = static_cast<uint32_t>(h.points.size());
-        h.hypotheses.push_back(dh);
-      }
-      h.points.push_back(sp);
-    }
+    addClutter(r, 4000, 0, 19.0F, 21.0F, rng, &h);  // disparities of depths 2.9-3.2 m
     const Eigen::Isometry3d T = planar(0.0, 0.0, 0.0);
     const PoseSearchResult res = search.run(r, T, kCov, points, h, o);
     ASSERT_TRUE(res.searched) << "seed " << seed;

@@ -210,6 +210,15 @@ std::vector<Eigen::Vector3d> randomPoints(std::mt19937& rng, int n) {
   return points;
 }
 
+/// The mapper's sensor model and clamping on an OctoMap tree built as the reference.
+void setSensorModel(const MappingOptions& o, octomap::OcTree* tree) {
+  tree->setProbHit(o.prob_hit);
+  tree->setProbMiss(o.prob_miss);
+  tree->setClampingThresMin(o.clamp_min);
+  tree->setClampingThresMax(o.clamp_max);
+  tree->setOccupancyThres(o.occupied_threshold);
+}
+
 /// OctoMap's own per-key path (updateNode(key, occupied, lazy_eval = false)) with the same
 /// sensor model: one ray per distinct end voxel, to the first point in it; hit wins over miss.
 void referenceInsert(octomap::OcTree* tree,
@@ -250,11 +259,7 @@ TEST(OccupancyMapper, BatchedUpdateMatchesOctomapPerKeyUpdates) {
   const MappingOptions o = defaultOptions();
   OccupancyMapper mapper(o);
   octomap::OcTree reference(o.resolution_m);
-  reference.setProbHit(o.prob_hit);
-  reference.setProbMiss(o.prob_miss);
-  reference.setClampingThresMin(o.clamp_min);
-  reference.setClampingThresMax(o.clamp_max);
-  reference.setOccupancyThres(o.occupied_threshold);
+  setSensorModel(o, &reference);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> across(-1.0, 1.0);
   std::uniform_real_distribution<double> depth(0.5, 7.0);
@@ -330,11 +335,7 @@ TEST(OccupancyMapper, BatchedUpdateMatchesOctomapAcrossKeyBoundariesAndLongRays)
     o.max_range_m = max_range_m;
     OccupancyMapper mapper(o);
     octomap::OcTree reference(o.resolution_m);
-    reference.setProbHit(o.prob_hit);
-    reference.setProbMiss(o.prob_miss);
-    reference.setClampingThresMin(o.clamp_min);
-    reference.setClampingThresMax(o.clamp_max);
-    reference.setOccupancyThres(o.occupied_threshold);
+    setSensorModel(o, &reference);
     for (const Eigen::Vector3d& base : origins) {
       for (int frame = 0; frame < 8; ++frame) {
         const Eigen::Vector3d origin =
