@@ -514,7 +514,8 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
   votes_.assign(static_cast<size_t>(span_t * span_t * (2 * nbin_yaw + 1)), 0);
   size_t n_votes = 0;
   const size_t offsets[2] = {std::max<size_t>(1, n_refs / 2), std::max<size_t>(1, n_refs / 3)};
-  for (size_t i = 0; i < n_refs; ++i) {
+  // Votes past kMaxVotes would not be counted: the loops end there.
+  for (size_t i = 0; i < n_refs && n_votes < kMaxVotes; ++i) {
     for (size_t off : offsets) {
       const size_t j = (i + off) % n_refs;
       if (j == i) continue;
@@ -526,8 +527,10 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
       const double len_tol =
           kPositionSlackM * 2.0 +
           o.match_disparity_px * (refs[i].z_m * refs[i].z_m + refs[j].z_m * refs[j].z_m) / fb;
-      for (uint32_t a = candidate_start_[i]; a < candidate_start_[i + 1]; ++a) {
-        for (uint32_t b = candidate_start_[j]; b < candidate_start_[j + 1]; ++b) {
+      for (uint32_t a = candidate_start_[i]; a < candidate_start_[i + 1] && n_votes < kMaxVotes;
+           ++a) {
+        for (uint32_t b = candidate_start_[j]; b < candidate_start_[j + 1] && n_votes < kMaxVotes;
+             ++b) {
           if (candidates_[a].point == candidates_[b].point) continue;
           const Eigen::Vector2d qi = candidates_[a].q_b.head<2>();
           const Eigen::Vector2d qj = candidates_[b].q_b.head<2>();
@@ -549,10 +552,8 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
           const int64_t bx = std::llround(t.x() / o.vote_m) + nbin_t;
           const int64_t by = std::llround(t.y() / o.vote_m) + nbin_t;
           const int64_t byaw = std::llround(yaw / bin_yaw) + nbin_yaw;
-          if (n_votes < kMaxVotes) {
-            ++votes_[static_cast<size_t>((byaw * span_t + by) * span_t + bx)];
-            ++n_votes;
-          }
+          ++votes_[static_cast<size_t>((byaw * span_t + by) * span_t + bx)];
+          ++n_votes;
         }
       }
     }
