@@ -101,7 +101,13 @@ StereoHypotheses frame(const StereoRig& r,
   }
   std::uniform_int_distribution<int> cu(0, r.width_px - 1), cv(0, r.height_px - 1);
   for (int i = 0; i < clutter; ++i) {
-    add(cu(rng), cv(rng), {static_cast<float>(rival(rng)), static_cast<float>(rival(rng))});
+    // Named draws: a call's arguments are evaluated in an unspecified order (this is the order
+    // GCC gave the scenes the tests were written on).
+    const auto d0 = static_cast<float>(rival(rng));
+    const auto d1 = static_cast<float>(rival(rng));
+    const int v = cv(rng);
+    const int u = cu(rng);
+    add(u, v, {d0, d1});
   }
   return h;
 }
