@@ -171,6 +171,8 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
 class TinyPoseProblem {
  public:
   using Scalar = double;
+  using Vector6 = Eigen::Matrix<double, 6, 1>;
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
   // NOLINTNEXTLINE(readability-identifier-naming): names fixed by ceres::TinySolver.
   enum { NUM_RESIDUALS = Eigen::Dynamic, NUM_PARAMETERS = 6 };
   static constexpr int kPriorRows = 6;
@@ -245,6 +247,80 @@ class TinyPoseProblem {
       for (int c = 0; c < 6; ++c) jacobian[c * rows + rows - 1] = 0.0;
     }
     return true;
+  }
+
+  /// |f(x)|^2 over the rows of operator() and, when jtj is given, J^T J and J^T f summed
+  /// observation by observation (the n x 6 Jacobian is never stored). Infinite when a step puts
+  /// an observation behind the camera.
+  ///
+  /// An observation's Jacobian (stereoTangentResidual) is J = [D [y]x Jr, -D], D = J_r B_cl_w
+  /// (3 x 3), y = p_w - t, Jr the right Jacobian shared by all: the sums are taken in
+  /// J' = [D [y]x, -D] and J = J' diag(Jr, I) applied once. J'^T J' has the blocks
+  /// ([y]x^T W [y]x, -[y]x^T W; ., W) with W = D^T D, J'^T r = ([y]x^T q; -q) with q = D^T r.
+  /// Ceres' correction (robustify) J_c = sqrt(rho') (I - k r r^T) J, r_c = s_r r gives
+  /// J_c^T J_c = rho' (J^T J - (2k - k^2 |r|^2) g g^T) and J_c^T r_c = sqrt(rho') s_r
+  /// (1 - k |r|^2) g with g = J^T r: a rank-one term instead of a corrected Jacobian.
+  [[nodiscard]] double sumOfSquares(const Vector6& x, Matrix6* jtj, Vector6* jtf) const {
+    const Vector6 prior_rows = prior_jacobian_ * x;
+    double sum = prior_rows.squaredNorm();
+    const TangentPose at(T_0_, x, R_cl_b_);
+    const Eigen::Vector3d t = at.T_w_b.translation();
+    double slack = 0.0;
+    Matrix6 h = Matrix6::Zero();  // upper triangle of J'^T J' (corrected)
+    Vector6 b = Vector6::Zero();  // J'^T r (corrected)
+    Eigen::Vector3d r;
+    Eigen::Matrix3d J_r;
+    for (const StereoResidual& f : residuals_) {
+      const Eigen::Vector3d y = f.p_w - t;
+      const Eigen::Vector3d p_c = at.B_cl_w * y + f.t_cl_b;
+      if (!cameraResidual(f, p_c, r.data(), jtj != nullptr ? &J_r : nullptr))
+        return std::numeric_limits<double>::infinity();
+      const double s = r.squaredNorm();
+      // Ceres' corrector (robustify): its weights without touching a Jacobian.
+      double rho1 = 1.0, k = 0.0, r_scale = 1.0;
+      if (loss_ != nullptr) {
+        double rho[3];
+        loss_->Evaluate(s, rho);
+        rho1 = rho[1];
+        r_scale = std::sqrt(rho1);
+        if (s > 0.0 && rho[2] > 0.0) {
+          const double alpha = 1.0 - std::sqrt(1.0 + 2.0 * s * rho[2] / rho1);
+          r_scale /= 1.0 - alpha;
+          k = alpha / s;
+        }
+        slack += rho[0] - r_scale * r_scale * s;
+      }
+      sum += r_scale * r_scale * s;
+      if (jtj == nullptr) continue;
+      const Eigen::Matrix3d D = J_r * at.B_cl_w;
+      const Eigen::Matrix3d W = D.transpose() * D;
+      Eigen::Matrix3d C;  // [y]x^T W: column j is W.col(j) x y
+      for (int j = 0; j < 3; ++j) C.col(j) = W.col(j).cross(y);
+      Eigen::Matrix3d top_left;  // [y]x^T W [y]x: row i is C.row(i) x y
+      for (int i = 0; i < 3; ++i) top_left.row(i) = C.row(i).transpose().cross(y).transpose();
+      const Eigen::Vector3d q = D.transpose() * r;
+      Vector6 g;
+      g << q.cross(y), -q;
+      h.topLeftCorner<3, 3>() += rho1 * top_left;
+      h.topRightCorner<3, 3>() -= rho1 * C;
+      h.bottomRightCorner<3, 3>() += rho1 * W;
+      const double rank_one = rho1 * (2.0 * k - k * k * s);
+      if (rank_one != 0.0) h.noalias() -= rank_one * g * g.transpose();
+      b += (std::sqrt(rho1) * r_scale * (1.0 - k * s)) * g;
+    }
+    if (jtj != nullptr) {
+      h.bottomLeftCorner<3, 3>() = h.topRightCorner<3, 3>().transpose();
+      const Eigen::Matrix3d& right_jac = at.right_jac;
+      jtj->topLeftCorner<3, 3>() = right_jac.transpose() * h.topLeftCorner<3, 3>() * right_jac;
+      jtj->topRightCorner<3, 3>() = right_jac.transpose() * h.topRightCorner<3, 3>();
+      jtj->bottomLeftCorner<3, 3>() = jtj->topRightCorner<3, 3>().transpose();
+      jtj->bottomRightCorner<3, 3>() = h.bottomRightCorner<3, 3>();
+      jtf->head<3>() = right_jac.transpose() * b.head<3>();
+      jtf->tail<3>() = b.tail<3>();
+      *jtj += prior_jacobian_.transpose() * prior_jacobian_;
+      *jtf += prior_jacobian_.transpose() * prior_rows;
+    }
+    return sum + std::max(0.0, slack);  // the last row, squared
   }
 
  private:
@@ -336,6 +412,79 @@ std::optional<Eigen::Isometry3d> solveTiny(const std::vector<StereoResidual>& re
     solver.options.function_tolerance =
         2.0 * kRelativeFunctionTolerance * problem.cost(x, &scratch);
     solver.Solve(problem, &x);
+    if (!x.allFinite()) return {};
+  }
+  return problem.pose(x);
+}
+
+/// The same two stages, each minimised by TinySolver's Levenberg-Marquardt (ceres/tiny_solver.h:
+/// its Jacobi scaling, trust-region rule and stopping tests, step for step) on the normal
+/// equations that TinyPoseProblem::sumOfSquares sums per observation
+/// (StereoCostLayout::kNormalEquations). TinySolver forms J^T J from the stored n x 6 Jacobian;
+/// this never stores it. Only the summation order differs, so the two agree to rounding.
+std::optional<Eigen::Isometry3d> solveNormalEquations(const std::vector<StereoResidual>& residuals,
+                                                      const PoseWithCovariance& prediction,
+                                                      const PoseUpdateOptions& options,
+                                                      const ceres::LossFunction& huber,
+                                                      const ceres::LossFunction& cauchy) {
+  using Vector6 = TinyPoseProblem::Vector6;
+  using Matrix6 = TinyPoseProblem::Matrix6;
+  // TinySolver::Options' defaults, and solveTiny's stopping rule (kRelativeFunctionTolerance).
+  constexpr double kRelativeFunctionTolerance = 1e-6;
+  constexpr double kGradientTolerance = 1e-10;
+  constexpr double kParameterTolerance = 1e-8;
+  constexpr double kCostThreshold = std::numeric_limits<double>::epsilon();
+  constexpr double kInitialTrustRegionRadius = 1e4;
+  TinyPoseProblem problem(residuals, prediction, options);
+  Vector6 x = Vector6::Zero();
+  Matrix6 jtj;
+  Vector6 jtf;
+  Eigen::LDLT<Matrix6> ldlt;
+  for (const ceres::LossFunction* loss : {&huber, &cauchy}) {
+    problem.setLoss(loss);
+    double sum = problem.sumOfSquares(x, &jtj, &jtf);
+    if (!std::isfinite(sum)) return {};
+    const double function_tolerance = kRelativeFunctionTolerance * sum;  // 2 x 1e-6 x cost
+    // Scaled as TinySolver scales J (columns by 1 / (1 + their norm), fixed at the start).
+    const Vector6 scaling = (1.0 + jtj.diagonal().array().sqrt()).inverse().matrix();
+    Matrix6 jtj_s = scaling.asDiagonal() * jtj * scaling.asDiagonal();
+    Vector6 g = -(scaling.asDiagonal() * jtf);
+    double cost = 0.5 * sum;
+    if (g.cwiseAbs().maxCoeff() < kGradientTolerance || cost < kCostThreshold) continue;
+    double u = 1.0 / kInitialTrustRegionRadius;
+    double v = 2.0;
+    // TinySolver counts its iterations from 1 and stops before max_num_iterations.
+    for (int iteration = 1; iteration <= options.max_iterations; ++iteration) {
+      Matrix6 jtj_regularized = jtj_s;
+      for (int i = 0; i < 6; ++i) {
+        const double lm_diagonal = std::sqrt(u * std::clamp(jtj_s(i, i), 1e-6, 1e32));
+        jtj_regularized(i, i) += lm_diagonal * lm_diagonal;
+      }
+      ldlt.compute(jtj_regularized);
+      const Vector6 lm_step = ldlt.solve(g);
+      const Vector6 dx = scaling.asDiagonal() * lm_step;
+      if (dx.norm() < kParameterTolerance * (x.norm() + kParameterTolerance)) break;
+      const Vector6 x_new = x + dx;
+      const double cost_change = 2.0 * cost - problem.sumOfSquares(x_new, nullptr, nullptr);
+      const double model_cost_change = lm_step.dot(2.0 * g - jtj_s * lm_step);
+      const double rho = cost_change / model_cost_change;
+      if (rho > 0.0) {
+        x = x_new;
+        if (std::abs(cost_change) < function_tolerance) break;
+        sum = problem.sumOfSquares(x, &jtj, &jtf);
+        jtj_s = scaling.asDiagonal() * jtj * scaling.asDiagonal();
+        g = -(scaling.asDiagonal() * jtf);
+        cost = 0.5 * sum;
+        if (g.cwiseAbs().maxCoeff() < kGradientTolerance || cost < kCostThreshold) break;
+        const double tmp = 2.0 * rho - 1.0;
+        u *= std::max(1.0 / 3.0, 1.0 - tmp * tmp * tmp);
+        v = 2.0;
+      } else {
+        if (std::abs(cost_change) < function_tolerance) break;
+        u *= v;
+        v *= 2.0;
+      }
+    }
     if (!x.allFinite()) return {};
   }
   return problem.pose(x);
@@ -501,7 +650,7 @@ PoseUpdateResult updatePose(const StereoRig& rig,
                             const PoseWithCovariance& prediction,
                             const std::vector<LandmarkObservation>& observations,
                             const PoseUpdateOptions& options) {
-  return updatePose(rig, prediction, observations, options, StereoCostLayout::kTinySolver);
+  return updatePose(rig, prediction, observations, options, StereoCostLayout::kNormalEquations);
 }
 
 PoseUpdateResult updatePose(const StereoRig& rig,
@@ -551,7 +700,9 @@ PoseUpdateResult updatePose(const StereoRig& rig,
   const ceres::HuberLoss huber(2.0 * options.cauchy_sigma);
   const ceres::CauchyLoss cauchy(options.cauchy_sigma);
   std::optional<Eigen::Isometry3d> solution =
-      layout == StereoCostLayout::kTinySolver
+      layout == StereoCostLayout::kNormalEquations
+          ? solveNormalEquations(residuals, prediction, options, huber, cauchy)
+      : layout == StereoCostLayout::kTinySolver
           ? solveTiny(residuals, prediction, options, huber, cauchy)
           : solveProblem(residuals, prediction, options, huber, cauchy, layout);
   if (!solution) return out;

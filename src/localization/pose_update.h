@@ -71,19 +71,23 @@ PoseUpdateResult updatePose(const StereoRig& rig,
                             const std::vector<LandmarkObservation>& observations,
                             const PoseUpdateOptions& options);
 
-/// How updatePose hands the stereo residuals to Ceres. The two give the same minimisation up to
-/// rounding (tests/localization/pose_update_test.cpp); the per-observation layout is kept as
-/// the reference of that test and of localization_bench.
+/// How updatePose solves. All give the same minimisation up to rounding or the solvers'
+/// stopping tolerance (tests/localization/pose_update_test.cpp); the Ceres layouts are kept as
+/// the reference of those tests and of localization_bench.
 enum class StereoCostLayout {
-  /// Ceres' TinySolver (Levenberg-Marquardt for small dense problems) on the 6 tangent
-  /// parameters of TangentPose, the loss applied inside: no ceres::Problem to build, the normal
-  /// equations formed by one matrix product (docs/localization.md, "Speed").
+  /// TinySolver's Levenberg-Marquardt step for step on the 6 tangent parameters of TangentPose,
+  /// the normal equations summed per observation instead of formed from a stored n x 6
+  /// Jacobian (docs/localization.md, "Speed"). The default.
+  kNormalEquations,
+  /// Ceres' TinySolver (Levenberg-Marquardt for small dense problems) on the same parameters,
+  /// the loss applied inside: no ceres::Problem to build, the normal equations formed by one
+  /// matrix product.
   kTinySolver,
   kOneBlock,        ///< ceres::Problem, one cost function, 3 rows per observation, the loss inside
   kPerObservation,  ///< ceres::Problem, one residual block per observation with Ceres' loss
 };
 
-/// updatePose with the stereo residuals laid out as `layout` (the overload above: kTinySolver).
+/// updatePose solved as `layout` says (the overload above: kNormalEquations).
 PoseUpdateResult updatePose(const StereoRig& rig,
                             const PoseWithCovariance& prediction,
                             const std::vector<LandmarkObservation>& observations,

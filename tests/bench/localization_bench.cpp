@@ -73,7 +73,13 @@ void updatePoseBench(benchmark::State& state, twocam::localization::StereoCostLa
   state.counters["inliers"] = inliers;
 }
 
-/// The pose update as the pipeline runs it: Ceres' TinySolver on the six tangent parameters.
+/// The pose update as the pipeline runs it: TinySolver's steps on normal equations summed per
+/// observation.
+void BM_UpdatePoseNormalEquations(benchmark::State& state) {
+  updatePoseBench(state, twocam::localization::StereoCostLayout::kNormalEquations);
+}
+
+/// The same on Ceres' TinySolver (the pipeline's solve from 2026-12-06 to 2026-12-07).
 void BM_UpdatePoseTinySolver(benchmark::State& state) {
   updatePoseBench(state, twocam::localization::StereoCostLayout::kTinySolver);
 }
@@ -192,6 +198,12 @@ void BM_BFMatcherHammingOpenCV(benchmark::State& state) {
   }
 }
 
+BENCHMARK(BM_UpdatePoseNormalEquations)
+    ->Arg(50)
+    ->Arg(150)
+    ->Arg(400)
+    ->Arg(1000)
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_UpdatePoseTinySolver)
     ->Arg(50)
     ->Arg(150)

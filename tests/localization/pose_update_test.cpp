@@ -291,7 +291,8 @@ TEST(PoseUpdate, OneBlockLayoutSolvesAsThePerObservationBlocksDo) {
 }
 
 TEST(PoseUpdate, TinySolverFindsTheMinimumOfTheCeresProblem) {
-  // The default solve (StereoCostLayout::kTinySolver: TinySolver on the tangent parameters)
+  // TinySolver on the tangent parameters (StereoCostLayout::kTinySolver, which the default
+  // kNormalEquations follows step for step)
   // against the per-observation ceres::Problem. Two Levenberg-Marquardt implementations stopping
   // at a relative cost change of 1e-6, with priors that differ at third order in the rotation
   // change (a rotation vector against twice a quaternion's vector part), so they agree to within
@@ -306,6 +307,21 @@ TEST(PoseUpdate, TinySolverFindsTheMinimumOfTheCeresProblem) {
   std::cout << "TinySolver vs per-observation Problem: worst position " << c.worst_position_m
             << " m, worst angle " << c.worst_angle_rad << " rad, inlier flags differing "
             << c.inlier_differences << "\n";
+}
+
+TEST(PoseUpdate, NormalEquationsSolveStepsAsTinySolverDoes) {
+  // The default solve (StereoCostLayout::kNormalEquations) runs TinySolver's Levenberg-Marquardt
+  // step for step on normal equations summed per observation: the same iterates up to the
+  // summation order, so poses, covariances and inliers agree to rounding.
+  const LayoutComparison c = compareLayouts(StereoCostLayout::kNormalEquations,
+                                            StereoCostLayout::kTinySolver,
+                                            kLayoutPositionTolM,
+                                            kLayoutAngleTolRad,
+                                            kLayoutCovarianceRelTol);
+  EXPECT_GE(c.visual, 30);
+  EXPECT_EQ(c.inlier_differences, 0);
+  std::cout << "normal equations vs TinySolver: worst position " << c.worst_position_m
+            << " m, worst angle " << c.worst_angle_rad << " rad\n";
 }
 
 TEST(PoseUpdate, AStepThatPutsALandmarkBehindTheCameraIsRejected) {
@@ -330,15 +346,19 @@ TEST(PoseUpdate, AStepThatPutsALandmarkBehindTheCameraIsRejected) {
   obs.push_back(near);
   const PoseUpdateResult tiny =
       updatePose(rig, prediction, obs, PoseUpdateOptions{}, StereoCostLayout::kTinySolver);
+  const PoseUpdateResult normal =
+      updatePose(rig, prediction, obs, PoseUpdateOptions{}, StereoCostLayout::kNormalEquations);
   const PoseUpdateResult problem =
       updatePose(rig, prediction, obs, PoseUpdateOptions{}, StereoCostLayout::kOneBlock);
-  for (const PoseUpdateResult* r : {&tiny, &problem}) {
+  for (const PoseUpdateResult* r : {&tiny, &normal, &problem}) {
     EXPECT_TRUE(r->estimate.T_w_b.matrix().allFinite());
     EXPECT_TRUE(r->estimate.cov.allFinite());
     EXPECT_GT(((r->estimate.T_w_b * rig.T_b_cl).inverse() * near.p_w).z(), 0.0);
   }
   EXPECT_LT((tiny.estimate.T_w_b.translation() - problem.estimate.T_w_b.translation()).norm(),
             kSolverPositionTolM);
+  EXPECT_LT((tiny.estimate.T_w_b.translation() - normal.estimate.T_w_b.translation()).norm(),
+            kLayoutPositionTolM);
 }
 
 TEST(PoseUpdate, TooFewLandmarksKeepThePrediction) {
