@@ -21,7 +21,11 @@ TEST(StereoRig, TriangulateInvertsProjectionOverSeededTrials) {
       zz(0.3, 80.0);
   for (int i = 0; i < kTrials; ++i) {
     const double z = zz(rng);
-    const Eigen::Vector2d uv(uu(rng), vv(rng));
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const double v_draw = vv(rng);
+    const double u_draw = uu(rng);
+    const Eigen::Vector2d uv(u_draw, v_draw);
     const Eigen::Vector3d p(
         (uv.x() - rig.cx_px) * z / rig.fx_px, (uv.y() - rig.cy_px) * z / rig.fy_px, z);
     Eigen::Vector2d uv2;

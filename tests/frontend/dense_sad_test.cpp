@@ -567,7 +567,13 @@ TEST(DenseSadPost, MedianRemovesIsolatedOutliersAndKeepsEdges) {
   std::mt19937 rng(3);
   std::uniform_int_distribution<int> col(0, 39), row(0, 29);
   ImageF32 noisy = map;
-  for (int i = 0; i < 25; ++i) noisy(col(rng), row(rng)) = 60.0f;  // isolated outliers
+  for (int i = 0; i < 25; ++i) {  // isolated outliers
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const int r = row(rng);
+    const int c = col(rng);
+    noisy(c, r) = 60.0f;
+  }
   noisy(3, 3) = kNoDisparity;
   ASSERT_TRUE(medianFilterDisparity(7, 7, &noisy).isOk());
   for (int v = 0; v < 30; ++v) {

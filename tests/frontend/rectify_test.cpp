@@ -144,7 +144,11 @@ TEST(StereoRectifier, ProjectedPointsShareRowsAndTriangulateToTheirDepth) {
   std::vector<Eigen::Vector3d> p_cl;
   std::vector<Eigen::Vector3d> p_b;
   for (int i = 0; i < kTrials; ++i) {
-    const Eigen::Vector2d uv(u_dist(rng), v_dist(rng));
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const double v_draw = v_dist(rng);
+    const double u_draw = u_dist(rng);
+    const Eigen::Vector2d uv(u_draw, v_draw);
     const double z = std::exp(log_z_dist(rng));
     uv_rect.push_back(uv);
     p_cl.emplace_back(
@@ -184,7 +188,11 @@ TEST(StereoRectifier, RawPixelInvertsRectifyPixel) {
   std::uniform_real_distribution<double> v_dist(0.0, 479.0);
   for (StereoSide side : {StereoSide::kLeft, StereoSide::kRight}) {
     for (int i = 0; i < 1000; ++i) {
-      const Eigen::Vector2d raw(u_dist(rng), v_dist(rng));
+      // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to
+      // left, kept)
+      const double v_draw = v_dist(rng);
+      const double u_draw = u_dist(rng);
+      const Eigen::Vector2d raw(u_draw, v_draw);
       Eigen::Vector2d rect;
       Eigen::Vector2d back;
       ASSERT_TRUE(r.rectifyPixel(side, raw, &rect));
@@ -352,7 +360,11 @@ TEST(RadTan, UndistortInvertsDistort) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> dist(-0.9, 0.9);
   for (int i = 0; i < 1000; ++i) {
-    const Eigen::Vector2d xy(dist(rng), 0.7 * dist(rng));
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const double y_draw = 0.7 * dist(rng);
+    const double x_draw = dist(rng);
+    const Eigen::Vector2d xy(x_draw, y_draw);
     Eigen::Vector2d back;
     ASSERT_TRUE(undistortRadTan(k, distortRadTan(k, xy), &back));
     EXPECT_LT((back - xy).norm(), kPixelTol * 1e-3) << xy.transpose();

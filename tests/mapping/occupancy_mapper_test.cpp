@@ -204,7 +204,12 @@ std::vector<Eigen::Vector3d> randomPoints(std::mt19937& rng, int n) {
   std::normal_distribution<double> dir(0.0, 1.0);
   std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d d = Eigen::Vector3d(dir(rng), dir(rng), dir(rng)).normalized();
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const double dz = dir(rng);
+    const double dy = dir(rng);
+    const double dx = dir(rng);
+    const Eigen::Vector3d d = Eigen::Vector3d(dx, dy, dz).normalized();
     points.push_back(range(rng) * d);
   }
   return points;

@@ -92,11 +92,16 @@ TEST(RayCodeWalk, ListsComputeRayKeysVoxelsForRandomRays) {
   for (const double resolution : {0.05, 0.25}) {
     const octomap::OcTree tree(resolution);
     for (int trial = 0; trial < kTrials; ++trial) {
-      const octomap::point3d origin(static_cast<float>(coord(rng)),
-                                    static_cast<float>(coord(rng)),
-                                    static_cast<float>(coord(rng)));
-      const octomap::point3d d(
-          static_cast<float>(dir(rng)), static_cast<float>(dir(rng)), static_cast<float>(dir(rng)));
+      // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to
+      // left, kept)
+      const auto oz = static_cast<float>(coord(rng));
+      const auto oy = static_cast<float>(coord(rng));
+      const auto ox = static_cast<float>(coord(rng));
+      const octomap::point3d origin(ox, oy, oz);
+      const auto dz = static_cast<float>(dir(rng));
+      const auto dy = static_cast<float>(dir(rng));
+      const auto dx = static_cast<float>(dir(rng));
+      const octomap::point3d d(dx, dy, dz);
       const octomap::point3d end = origin + d.normalized() * static_cast<float>(length(rng));
       expectSameRay(tree, origin, end, "random ray " + std::to_string(trial));
     }
@@ -201,7 +206,12 @@ void expectWindowedOrderIsMortonOrder(unsigned base, std::mt19937& rng) {
   std::uniform_int_distribution<unsigned> offset(0, 511);
   std::vector<octomap::OcTreeKey> keys;
   for (int i = 0; i < kTrials; ++i) {
-    keys.push_back(key(base + offset(rng), base + offset(rng), base + offset(rng)));
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const auto kz = base + offset(rng);
+    const auto ky = base + offset(rng);
+    const auto kx = base + offset(rng);
+    keys.push_back(key(kx, ky, kz));
   }
   for (const octomap::OcTreeKey& k : keys) {
     const uint64_t code = encodeKey(*layout, k);
@@ -229,7 +239,12 @@ TEST(VoxelCodeLayout, WindowedCodesSortInMortonOrderAcrossKeyBoundaries) {
   uint64_t previous_morton = 0;
   std::vector<octomap::OcTreeKey> keys;
   for (int i = 0; i < kTrials; ++i) {
-    keys.push_back(key(0x7F10 + offset(rng), 0x8010 + offset(rng), 0x7B20 + offset(rng)));
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const auto kz = 0x7B20 + offset(rng);
+    const auto ky = 0x8010 + offset(rng);
+    const auto kx = 0x7F10 + offset(rng);
+    keys.push_back(key(kx, ky, kz));
   }
   std::sort(keys.begin(), keys.end(), [&](const auto& a, const auto& b) {
     return encodeKey(*mixed, a) < encodeKey(*mixed, b);

@@ -28,7 +28,12 @@ TEST(MapRecorder, StereoCovarianceMatchesSampledTriangulations) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> pts;
   for (int i = 0; i < kSamples; ++i) {
-    pts.push_back(triangulate(u + sigma * n(rng), v + sigma * n(rng), d + sigma_d * n(rng)));
+    // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to left,
+    // kept)
+    const double d_noisy = d + sigma_d * n(rng);
+    const double v_noisy = v + sigma * n(rng);
+    const double u_noisy = u + sigma * n(rng);
+    pts.push_back(triangulate(u_noisy, v_noisy, d_noisy));
     mean += pts.back();
   }
   mean /= kSamples;

@@ -135,7 +135,12 @@ Eigen::Vector3d sampleSurface(const Shape& s, std::mt19937& rng) {
     case ShapeKind::kPlane:
       return {u(rng) * s.size_m.x(), u(rng) * s.size_m.y(), 0.0};
     case ShapeKind::kBox: {
-      Eigen::Vector3d p(u(rng) * s.size_m.x(), u(rng) * s.size_m.y(), u(rng) * s.size_m.z());
+      // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to
+      // left, kept)
+      const double pz = u(rng) * s.size_m.z();
+      const double py = u(rng) * s.size_m.y();
+      const double px = u(rng) * s.size_m.x();
+      Eigen::Vector3d p(px, py, pz);
       const int f = face(rng);
       p[f / 2] = (f % 2 == 0 ? 1.0 : -1.0) * h[f / 2];
       return p;
@@ -164,7 +169,12 @@ TEST(WorldDistance, PropertySurfacePointsAreAtZeroAndDistanceIsALowerBound) {
       ASSERT_NEAR(distanceToShape(s, q_w), 0.0, kSurfaceTol)
           << "kind " << static_cast<int>(kind) << " trial " << trial;
       // The distance is the smallest over the surface: no surface point is closer.
-      const Eigen::Vector3d p_w = T_w_s.translation() + Eigen::Vector3d(u(rng), u(rng), u(rng));
+      // named draws: a call's arguments are evaluated in an unspecified order (GCC's, right to
+      // left, kept)
+      const double oz = u(rng);
+      const double oy = u(rng);
+      const double ox = u(rng);
+      const Eigen::Vector3d p_w = T_w_s.translation() + Eigen::Vector3d(ox, oy, oz);
       ASSERT_LE(distanceToShape(s, p_w), (p_w - q_w).norm() + kSurfaceTol)
           << "kind " << static_cast<int>(kind) << " trial " << trial;
     }
