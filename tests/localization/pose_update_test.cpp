@@ -275,28 +275,31 @@ LayoutComparison compareLayouts(StereoCostLayout first,
   return out;
 }
 
+/// Two layouts that run the same minimisation: they differ by rounding only, on nearly every
+/// scene solved (the comparison is not vacuous) and with no inlier flag different.
+void expectSameMinimisation(StereoCostLayout first, StereoCostLayout second, const char* what) {
+  const LayoutComparison c = compareLayouts(
+      first, second, kLayoutPositionTolM, kLayoutAngleTolRad, kLayoutCovarianceRelTol);
+  EXPECT_GE(c.visual, 30);
+  EXPECT_EQ(c.inlier_differences, 0);
+  std::cout << what << ": worst position " << c.worst_position_m << " m, worst angle "
+            << c.worst_angle_rad << " rad\n";
+}
+
 TEST(PoseUpdate, OneBlockLayoutSolvesAsThePerObservationBlocksDo) {
   // The one cost function with the loss applied inside (StereoCostLayout::kOneBlock) against one
-  // Ceres residual block per observation with Ceres' own Huber, then Cauchy, loss: both are the
-  // same minimisation, so they differ by rounding only.
-  const LayoutComparison c = compareLayouts(StereoCostLayout::kOneBlock,
-                                            StereoCostLayout::kPerObservation,
-                                            kLayoutPositionTolM,
-                                            kLayoutAngleTolRad,
-                                            kLayoutCovarianceRelTol);
-  EXPECT_GE(c.visual, 30);  // nearly every scene is solved: the comparison is not vacuous
-  EXPECT_EQ(c.inlier_differences, 0);
-  std::cout << "one block vs per observation: worst position " << c.worst_position_m
-            << " m, worst angle " << c.worst_angle_rad << " rad\n";
+  // Ceres residual block per observation with Ceres' own Huber, then Cauchy, loss.
+  expectSameMinimisation(StereoCostLayout::kOneBlock,
+                         StereoCostLayout::kPerObservation,
+                         "one block vs per observation");
 }
 
 TEST(PoseUpdate, TinySolverFindsTheMinimumOfTheCeresProblem) {
   // TinySolver on the tangent parameters (StereoCostLayout::kTinySolver, which the default
-  // kNormalEquations follows step for step)
-  // against the per-observation ceres::Problem. Two Levenberg-Marquardt implementations stopping
-  // at a relative cost change of 1e-6, with priors that differ at third order in the rotation
-  // change (a rotation vector against twice a quaternion's vector part), so they agree to within
-  // the stopping tolerance.
+  // kNormalEquations follows step for step) against the per-observation ceres::Problem. Two
+  // Levenberg-Marquardt implementations stopping at a relative cost change of 1e-6, with priors
+  // that differ at third order in the rotation change (a rotation vector against twice a
+  // quaternion's vector part), so they agree to within the stopping tolerance.
   const LayoutComparison c = compareLayouts(StereoCostLayout::kTinySolver,
                                             StereoCostLayout::kPerObservation,
                                             kSolverPositionTolM,
@@ -312,16 +315,10 @@ TEST(PoseUpdate, TinySolverFindsTheMinimumOfTheCeresProblem) {
 TEST(PoseUpdate, NormalEquationsSolveStepsAsTinySolverDoes) {
   // The default solve (StereoCostLayout::kNormalEquations) runs TinySolver's Levenberg-Marquardt
   // step for step on normal equations summed per observation: the same iterates up to the
-  // summation order, so poses, covariances and inliers agree to rounding.
-  const LayoutComparison c = compareLayouts(StereoCostLayout::kNormalEquations,
-                                            StereoCostLayout::kTinySolver,
-                                            kLayoutPositionTolM,
-                                            kLayoutAngleTolRad,
-                                            kLayoutCovarianceRelTol);
-  EXPECT_GE(c.visual, 30);
-  EXPECT_EQ(c.inlier_differences, 0);
-  std::cout << "normal equations vs TinySolver: worst position " << c.worst_position_m
-            << " m, worst angle " << c.worst_angle_rad << " rad\n";
+  // summation order.
+  expectSameMinimisation(StereoCostLayout::kNormalEquations,
+                         StereoCostLayout::kTinySolver,
+                         "normal equations vs TinySolver");
 }
 
 TEST(PoseUpdate, AStepThatPutsALandmarkBehindTheCameraIsRejected) {
