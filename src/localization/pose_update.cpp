@@ -12,6 +12,8 @@
 #include <opencv2/calib3d.hpp>
 #include <optional>
 
+#include "common/status.h"
+
 namespace twocam::localization {
 namespace {
 
@@ -257,17 +259,17 @@ class TinyPoseProblem {
   /// (3 x 3), y = p_w - t, Jr the right Jacobian shared by all: the sums are taken in
   /// J' = [D [y]x, -D] and J = J' diag(Jr, I) applied once. J'^T J' has the blocks
   /// ([y]x^T W [y]x, -[y]x^T W; ., W) with W = D^T D, J'^T r = ([y]x^T q; -q) with q = D^T r.
-  /// Ceres' correction (robustify) J_c = sqrt(rho') (I - k r r^T) J, r_c = s_r r gives
-  /// J_c^T J_c = rho' (J^T J - (2k - k^2 |r|^2) g g^T) and J_c^T r_c = sqrt(rho') s_r
-  /// (1 - k |r|^2) g with g = J^T r: a rank-one term instead of a corrected Jacobian.
+  /// For a loss with rho'' <= 0 (Huber, Cauchy: the ones updatePose uses) Ceres' correction
+  /// (robustify) is r_c = sqrt(rho') r, J_c = sqrt(rho') J, so J^T J and J^T r are summed with
+  /// the weight rho'; a loss with rho'' > 0, which needs robustify's curvature term, is refused.
   [[nodiscard]] double sumOfSquares(const Vector6& x, Matrix6* jtj, Vector6* jtf) const {
     const Vector6 prior_rows = prior_jacobian_ * x;
     double sum = prior_rows.squaredNorm();
     const TangentPose at(T_0_, x, R_cl_b_);
     const Eigen::Vector3d t = at.T_w_b.translation();
     double slack = 0.0;
-    Matrix6 h = Matrix6::Zero();  // upper triangle of J'^T J' (corrected)
-    Vector6 b = Vector6::Zero();  // J'^T r (corrected)
+    Matrix6 h = Matrix6::Zero();  // J'^T J' weighted; its lower-left block is filled at the end
+    Vector6 b = Vector6::Zero();  // J'^T r weighted
     Eigen::Vector3d r;
     Eigen::Matrix3d J_r;
     for (const StereoResidual& f : residuals_) {
@@ -276,21 +278,16 @@ class TinyPoseProblem {
       if (!cameraResidual(f, p_c, r.data(), jtj != nullptr ? &J_r : nullptr))
         return std::numeric_limits<double>::infinity();
       const double s = r.squaredNorm();
-      // Ceres' corrector (robustify): its weights without touching a Jacobian.
-      double rho1 = 1.0, k = 0.0, r_scale = 1.0;
+      double rho1 = 1.0;  // Ceres' corrector as a weight (see above)
       if (loss_ != nullptr) {
         double rho[3];
         loss_->Evaluate(s, rho);
+        TWOCAM_CHECK(!(s > 0.0 && rho[2] > 0.0))
+            << "the normal-equation pose solve takes losses with rho'' <= 0 only";
         rho1 = rho[1];
-        r_scale = std::sqrt(rho1);
-        if (s > 0.0 && rho[2] > 0.0) {
-          const double alpha = 1.0 - std::sqrt(1.0 + 2.0 * s * rho[2] / rho1);
-          r_scale /= 1.0 - alpha;
-          k = alpha / s;
-        }
-        slack += rho[0] - r_scale * r_scale * s;
+        slack += rho[0] - rho1 * s;
       }
-      sum += r_scale * r_scale * s;
+      sum += rho1 * s;
       if (jtj == nullptr) continue;
       const Eigen::Matrix3d D = J_r * at.B_cl_w;
       const Eigen::Matrix3d W = D.transpose() * D;
@@ -304,9 +301,7 @@ class TinyPoseProblem {
       h.topLeftCorner<3, 3>() += rho1 * top_left;
       h.topRightCorner<3, 3>() -= rho1 * C;
       h.bottomRightCorner<3, 3>() += rho1 * W;
-      const double rank_one = rho1 * (2.0 * k - k * k * s);
-      if (rank_one != 0.0) h.noalias() -= rank_one * g * g.transpose();
-      b += (std::sqrt(rho1) * r_scale * (1.0 - k * s)) * g;
+      b += rho1 * g;
     }
     if (jtj != nullptr) {
       h.bottomLeftCorner<3, 3>() = h.topRightCorner<3, 3>().transpose();
