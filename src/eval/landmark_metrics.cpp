@@ -176,12 +176,14 @@ Status LandmarkEvaluator::addFrame(const StereoHypotheses& hyps,
         patchStdDevGrey(left, l.anchor.u_px, l.anchor.v_px, kTexturePatchRadius));
     anchors_[l.id] = t;
   }
-  tallyDuplicates(report, T_w_b_true);
+  tallyDuplicates(report, find, T_w_b_true);
   return Status::ok();
 }
 
-void LandmarkEvaluator::tallyDuplicates(const landmarks::FrameReport& report,
-                                        const Eigen::Isometry3d& T_w_b_true) {
+void LandmarkEvaluator::tallyDuplicates(
+    const landmarks::FrameReport& report,
+    const std::function<const landmarks::Landmark*(uint64_t id)>& find,
+    const Eigen::Isometry3d& T_w_b_true) {
   std::vector<std::pair<uint64_t, Eigen::Vector3f>> fresh;
   for (uint64_t id : report.confirmed_ids) {
     const auto it = anchors_.find(id);
@@ -194,7 +196,7 @@ void LandmarkEvaluator::tallyDuplicates(const landmarks::FrameReport& report,
            uvd->y() >= -1.0 && uvd->x() <= rig_.width_px + 1.0 && uvd->y() <= rig_.height_px + 1.0;
   };
   // The older confirmed landmarks' true points in this frame's true camera, binned by pixel.
-  std::unordered_map<uint64_t, std::vector<Eigen::Vector3d>> bins;
+  std::unordered_map<uint64_t, std::vector<std::pair<Eigen::Vector3d, uint64_t>>> bins;
   // Rows and columns offset into [0, 2^20) (projections lie within a pixel of the image), packed
   // unsigned: a shift of a negative value is undefined.
   const auto bin_key = [](int64_t u, int64_t v) {
@@ -205,30 +207,43 @@ void LandmarkEvaluator::tallyDuplicates(const landmarks::FrameReport& report,
   Eigen::Vector3d uvd;
   for (const auto& [id, p_w] : confirmed_true_w_) {
     if (project(p_w, &uvd)) {
-      bins[bin_key(std::lround(uvd.x()), std::lround(uvd.y()))].push_back(uvd);
+      bins[bin_key(std::lround(uvd.x()), std::lround(uvd.y()))].emplace_back(uvd, id);
     }
   }
   for (const auto& [id, p_w] : fresh) {
     ++confirmations_judged_;
-    bool duplicate = false;
-    if (project(p_w, &uvd)) {
-      const int64_t u0 = std::lround(uvd.x()), v0 = std::lround(uvd.y());
-      for (int64_t dv = -2; dv <= 2 && !duplicate; ++dv) {
-        for (int64_t du = -2; du <= 2 && !duplicate; ++du) {
-          const auto b = bins.find(bin_key(u0 + du, v0 + dv));
-          if (b == bins.end()) continue;
-          for (const Eigen::Vector3d& o : b->second) {
-            if (std::abs(o.x() - uvd.x()) <= kTruthTolPx &&
-                std::abs(o.y() - uvd.y()) <= kTruthTolPx &&
-                std::abs(o.z() - uvd.z()) <= kTruthTolPx) {
-              duplicate = true;
-              break;
-            }
+    if (!project(p_w, &uvd)) continue;
+    // The older landmark whose true point is nearest (largest of the three offsets) within the
+    // tolerance, if any.
+    uint64_t older = 0;
+    double older_offset = kTruthTolPx;
+    const int64_t u0 = std::lround(uvd.x()), v0 = std::lround(uvd.y());
+    for (int64_t dv = -2; dv <= 2; ++dv) {
+      for (int64_t du = -2; du <= 2; ++du) {
+        const auto b = bins.find(bin_key(u0 + du, v0 + dv));
+        if (b == bins.end()) continue;
+        for (const auto& [o, older_id] : b->second) {
+          const double offset = (o - uvd).cwiseAbs().maxCoeff();
+          if (offset <= older_offset && (older == 0 || offset < older_offset)) {
+            older = older_id;
+            older_offset = offset;
           }
         }
       }
     }
-    duplicates_ += duplicate ? 1 : 0;
+    if (older == 0) continue;
+    ++duplicates_;
+    DuplicateRecord r;
+    r.frame = report.frame;
+    r.id = id;
+    r.older_id = older;
+    if (const landmarks::Landmark* l = find(id)) r.first_frame = l->first_frame;
+    if (const landmarks::Landmark* l = find(older)) {
+      r.older_first_frame = l->first_frame;
+      r.older_confirmed_frame = l->confirmed_frame;
+      r.older_last_seen_frame = l->last_seen_frame;
+    }
+    duplicate_records_.push_back(r);
   }
   // Added after the check: landmarks confirmed in the same frame are not older than each other.
   for (const auto& [id, p_w] : fresh) confirmed_true_w_[id] = p_w;

@@ -120,6 +120,21 @@ struct LandmarkMetrics {
   std::vector<TextureRow> by_texture;
 };
 
+/// One confirmation counted in LandmarkMetrics::duplicates, with what the database knew of the
+/// older landmark at that point then (run output duplicates.csv: where duplicates come from).
+struct DuplicateRecord {
+  int32_t frame = 0;         ///< the confirming frame
+  uint64_t id = 0;           ///< the landmark confirmed
+  int32_t first_frame = -1;  ///< its seeding frame
+  /// The older confirmed landmark whose true point is nearest (largest of the u, v, d offsets),
+  /// its seeding and confirming frames, and the last frame that associated it (this one
+  /// included: equal to `frame` when both were associated in the confirming frame).
+  uint64_t older_id = 0;
+  int32_t older_first_frame = -1;
+  int32_t older_confirmed_frame = -1;
+  int32_t older_last_seen_frame = -1;
+};
+
 /// A ground-truth pose farther than this from the origin is refused [m]: no simulated or
 /// recorded world is that large, and beyond it float positions lose the 2 cm of kSamePointM.
 constexpr double kMaxGroundTruthCoordM = 1e6;
@@ -154,6 +169,11 @@ class LandmarkEvaluator {
                                 const std::function<const landmarks::Landmark*(uint64_t id)>& find,
                                 const ImageF32& gt_depth,
                                 const Eigen::Isometry3d& T_w_b_true);
+
+  /// Every confirmation counted as a duplicate so far, in frame order.
+  [[nodiscard]] const std::vector<DuplicateRecord>& duplicateRecords() const {
+    return duplicate_records_;
+  }
 
   /// Final metrics from the database's final state.
   [[nodiscard]] LandmarkMetrics finish(const landmarks::LandmarkDatabase& db) const;
@@ -194,7 +214,9 @@ class LandmarkEvaluator {
   };
   /// Counts this frame's confirmations that duplicate an older confirmed landmark (see
   /// LandmarkMetrics::duplicate_fraction) and adds them to confirmed_true_w_.
-  void tallyDuplicates(const landmarks::FrameReport& report, const Eigen::Isometry3d& T_w_b_true);
+  void tallyDuplicates(const landmarks::FrameReport& report,
+                       const std::function<const landmarks::Landmark*(uint64_t id)>& find,
+                       const Eigen::Isometry3d& T_w_b_true);
 
   StereoRig rig_;
   DisparityGroundTruth gt_;
@@ -203,6 +225,7 @@ class LandmarkEvaluator {
   std::unordered_map<uint64_t, Eigen::Vector3f> confirmed_true_w_;
   int64_t confirmations_judged_ = 0;
   int64_t duplicates_ = 0;
+  std::vector<DuplicateRecord> duplicate_records_;
   int64_t hyp_total_ = 0;
   int64_t hyp_judged_ = 0;
   int64_t hyp_true_ = 0;

@@ -216,6 +216,18 @@ std::string slipEventsCsv(const std::vector<sim::SlipEvent>& events, double fram
   return csv.str();
 }
 
+std::string duplicatesCsv(const std::vector<DuplicateRecord>& records) {
+  std::ostringstream csv;
+  csv << "frame,id,first_frame,older_id,older_first_frame,older_confirmed_frame,"
+         "older_last_seen_frame\n";
+  for (const DuplicateRecord& r : records) {
+    csv << r.frame << ',' << r.id << ',' << r.first_frame << ',' << r.older_id << ','
+        << r.older_first_frame << ',' << r.older_confirmed_frame << ',' << r.older_last_seen_frame
+        << '\n';
+  }
+  return csv.str();
+}
+
 /// Revisits (issue 23: "in a static world already explored, the database stops growing"):
 /// laps of the true track, a lap ending where the robot passes within kLapRadiusM of its start
 /// after at least kMinLapPathM of travel (the frame nearest the start in that pass), and the
@@ -643,6 +655,7 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
   // ---- files ---------------------------------------------------------------------------------
   auto& files = out->text_files;
   files.emplace_back("landmarks.csv", landmarksCsv(all_landmarks, has_gt));
+  if (lm) files.emplace_back("duplicates.csv", duplicatesCsv(landmarks_.duplicateRecords()));
   files.emplace_back("timings.csv", timingsCsv(s.records));
   files.emplace_back("config_used.yaml",
                      "# Effective configuration of twocam run on " + inputs_.log_path + "\n" +

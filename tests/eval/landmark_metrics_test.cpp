@@ -221,6 +221,7 @@ TEST_F(HandBuiltRun, DuplicatesAreConfirmationsOfAnOlderConfirmedLandmarksPoint)
   ASSERT_TRUE(confirm_frame(0, {first, elsewhere}, {first, elsewhere}).isOk());
   // Frame 1: the same point again (0.6 px away), and a new point 3 px away: one duplicate.
   const uint32_t again = add(kC, 10.6f, 20, kNearZ, 0.9, 1);
+  slots_[first].last_seen_frame = 1;  // `first` was associated in frame 1 too
   const uint32_t beside = add(kC, 13, 20, kNearZ, 0.9, 1);
   ASSERT_TRUE(confirm_frame(1, {again, beside}, {again, beside}).isOk());
   // Frame 2: `elsewhere` was removed; its point confirmed again is not a duplicate any more
@@ -232,6 +233,16 @@ TEST_F(HandBuiltRun, DuplicatesAreConfirmationsOfAnOlderConfirmedLandmarksPoint)
   EXPECT_EQ(m.confirmations_judged, 5);
   EXPECT_EQ(m.duplicates, 1);
   EXPECT_DOUBLE_EQ(m.duplicate_fraction, 0.2);
+  // The record names the older landmark at the point, as the database had it then.
+  ASSERT_EQ(evaluator_.duplicateRecords().size(), 1u);
+  const DuplicateRecord& r = evaluator_.duplicateRecords()[0];
+  EXPECT_EQ(r.frame, 1);
+  EXPECT_EQ(r.id, slots_[again].id);
+  EXPECT_EQ(r.first_frame, 1);
+  EXPECT_EQ(r.older_id, slots_[first].id);
+  EXPECT_EQ(r.older_first_frame, 0);
+  EXPECT_EQ(r.older_confirmed_frame, 3);  // add(): confirmed three frames after seeding
+  EXPECT_EQ(r.older_last_seen_frame, 1);
   // Every landmark sits at its true point (identity poses): map error 0 up to float rounding.
   constexpr double kFloatPointTolM = 1e-6;
   EXPECT_NEAR(m.map_error_median_m, 0.0, kFloatPointTolM);
