@@ -337,14 +337,15 @@ TEST(TwocamCli, RunSkipsBadOdometryFramesAndRunsTheFrontendOnlyWithoutOdometry) 
 
 TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
   const std::string dir = test::makeTempDir("cli_run_outputs");
-  ASSERT_EQ(run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 24 --seed 5 -q")
-                .exit_code,
-            0);
+  const RunResult sim =
+      run("simulate " + smallWorld() + " -o " + dir + "/s.rawlog --frames 24 --seed 5 -q");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
   ASSERT_TRUE(fs::exists(dir + "/s.world.yaml"));
   const RunResult a = run("run " + dir + "/s.rawlog -o " + dir + "/a -q --no-pictures");
   ASSERT_EQ(a.exit_code, 0) << a.output;
   for (const char* f : {"metrics.json",
                         "landmarks.csv",
+                        "duplicates.csv",
                         "trajectory_odom.tum",
                         "trajectory_gt.tum",
                         "map.bt",
@@ -382,6 +383,12 @@ TEST(TwocamCli, RunWritesEveryOutputDeterministicallyAndKeepsThemOnBadInput) {
   ASSERT_EQ(b.exit_code, 0) << b.output;
   EXPECT_EQ(readFile(dir + "/a/metrics.json"), readFile(dir + "/b/metrics.json"));
   EXPECT_EQ(readFile(dir + "/a/landmarks.csv"), readFile(dir + "/b/landmarks.csv"));
+  EXPECT_EQ(readFile(dir + "/a/duplicates.csv"), readFile(dir + "/b/duplicates.csv"));
+  EXPECT_EQ(readFile(dir + "/a/duplicates.csv")
+                .rfind("frame,id,first_frame,older_id,older_first_frame,older_confirmed_frame,"
+                       "older_last_seen_frame\n",
+                       0),
+            0u);
   EXPECT_EQ(readFile(dir + "/a/map.bt"), readFile(dir + "/b/map.bt"));
 
   // A config changes the run: a coarser map has fewer voxels; --policy overrides the file.
