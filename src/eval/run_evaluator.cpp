@@ -169,7 +169,7 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
          "search_best_score,search_best_reference,search_best_chance_score,search_rival_score,"
          "search_dx_m,search_dy_m,search_dyaw_deg,reanchor_"
          "reference,"
-         "reanchored\n";
+         "reanchored,landmarks_observed\n";
   size_t next_flag = 0;
   for (size_t i = 0; i < s.pose_track.size() && i < s.records.size(); ++i) {
     const int32_t frame = s.records[i].frame;
@@ -200,7 +200,8 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
     } else {
       csv << ",,,,,,,";
     }
-    csv << ',' << f.reanchor_reference << ',' << (f.reanchored ? 1 : 0) << '\n';
+    csv << ',' << f.reanchor_reference << ',' << (f.reanchored ? 1 : 0) << ','
+        << (i < s.landmarks_observed.size() ? s.landmarks_observed[i] : 0) << '\n';
   }
   return csv.str();
 }

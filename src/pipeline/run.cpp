@@ -92,6 +92,7 @@ Status Run::execute(const FrameSource& next,
       s.pose_track.push_back({frame.stereo.t_ns, toIsometry(fo.pose)});
       s.visual.push_back(fo.visual ? 1 : 0);
       s.landmarks_used.push_back(fo.landmarks_used);
+      s.landmarks_observed.push_back(fo.landmarks_observed);
       s.search.push_back(fo.search_accepted ? 2 : (fo.searched ? 1 : 0));
       s.search_figures.push_back({fo.search_reference,
                                   fo.search_prediction_score,

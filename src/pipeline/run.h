@@ -70,6 +70,9 @@ struct RunSummary {
   /// in the pose (inliers).
   std::vector<uint8_t> visual;
   std::vector<int> landmarks_used;
+  /// Per processed frame (odometry mode): the confirmed landmarks' observations the pose was
+  /// solved on (FrameOutput::landmarks_observed); landmarks_used of them were inliers.
+  std::vector<int> landmarks_observed;
   /// Frames the slip test flagged as odometry outliers (fused), in order.
   std::vector<int32_t> slip_frames;
   /// Per processed frame (odometry mode): the slip search (FrameOutput::searched,

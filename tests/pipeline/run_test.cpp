@@ -126,6 +126,7 @@ TEST(PipelineRun, WithoutFrameRecordsKeepsTheCountsOnly) {
   EXPECT_TRUE(s.odom_track.empty());
   EXPECT_TRUE(s.pose_track.empty());
   EXPECT_TRUE(s.landmarks_used.empty());
+  EXPECT_TRUE(s.landmarks_observed.empty());
 }
 
 TEST(PipelineRun, ALogWithoutOdometryRunsTheFrontendOnly) {

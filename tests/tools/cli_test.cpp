@@ -516,7 +516,32 @@ TEST(TwocamCli, RunLocalizesInEachModeAndRefusesAnUnknownOne) {
                           "\"duplicate_fraction\""}) {
     EXPECT_NE(fused_metrics.find(key), std::string::npos) << key;
   }
-  EXPECT_TRUE(fs::exists(dir + "/fused/localization.csv"));
+  // localization.csv: per frame the inliers (landmarks_used) of the observations the pose was
+  // solved on (landmarks_observed, the last column); the frames with a visual pose had some.
+  {
+    std::istringstream csv(readFile(dir + "/fused/localization.csv"));
+    std::string line;
+    ASSERT_TRUE(std::getline(csv, line));
+    ASSERT_GE(line.size(), std::string(",landmarks_observed").size()) << line;
+    EXPECT_EQ(line.substr(line.rfind(',')), ",landmarks_observed") << line;
+    int rows = 0, visual_rows = 0;
+    while (std::getline(csv, line)) {
+      std::vector<std::string> cells;
+      std::istringstream cs(line);
+      for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
+      ASSERT_EQ(cells.size(), 22u) << line;
+      const int used = std::stoi(cells[3]);
+      const int observed = std::stoi(cells[21]);
+      EXPECT_LE(used, observed) << line;
+      if (cells[2] == "1") {
+        ++visual_rows;
+        EXPECT_GT(observed, 0) << line;
+      }
+      ++rows;
+    }
+    EXPECT_EQ(rows, 30);
+    EXPECT_GT(visual_rows, 0);
+  }
   // Odometry mode writes no estimated track.
   const RunResult odo =
       run("run " + dir + "/s.rawlog -o " + dir + "/odo -q --no-pictures --localization odometry");
