@@ -79,6 +79,13 @@ struct PoseSearchOptions {
   /// the confirmed landmarks predicted in view but not associated in the last frame and not
   /// seen within reference_frames, the max_reference best observed of them.
   bool reanchor = true;
+  /// With enabled: when the prediction fails the check and a heading within its error passes
+  /// it (the odometry step's heading error in a turn), the landmark database predicts and gates
+  /// at the pose the reference landmarks measured (the prediction corrected by
+  /// PoseSearchResult::step), not at the prediction; the update's prior stays the prediction
+  /// (localization/pose_search.h, associationPose). false: the database always uses the
+  /// prediction (or the search's accepted pose).
+  bool associate_at_step = true;
   /// Largest pose error the search covers: position [m] and heading [deg] per axis. The slips
   /// the issue names are 3-20 cm and 1-10 degrees; a little more leaves room for the
   /// prediction's own error.

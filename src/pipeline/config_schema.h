@@ -64,7 +64,7 @@ static_assert(fieldCount<mapping::MappingOptions>() == 8,
 static_assert(
     fieldCount<localization::LocalizationOptions>() == 6,
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
-static_assert(fieldCount<localization::PoseSearchOptions>() == 18,
+static_assert(fieldCount<localization::PoseSearchOptions>() == 19,
               "PoseSearchOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<localization::PoseUpdateOptions>() == 9,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
@@ -392,6 +392,9 @@ void visitLocalization(O& o, V& v) {
     s("reanchor",
       so.reanchor,
       "also search against the earlier map's unassociated landmarks in view [bool]");
+    s("associate_at_step",
+      so.associate_at_step,
+      "associate at the pose a passing heading's references measured, not the prediction [bool]");
     s("max_slip_m", so.max_slip_m, "largest position error searched, per axis [m]");
     s("max_slip_deg", so.max_slip_deg, "largest heading error searched [deg]");
     s("match_px", so.match_px, "one-to-one match: pixel distance per axis [px]");

@@ -101,6 +101,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   out->slip_frame = -1;
   double search_ms = 0.0;
   localization::PoseSearchResult sr;
+  bool association_moved = false;
   Eigen::Matrix3d previous_cov = Eigen::Matrix3d::Zero();
   Pose2 increment;
   if (localizing) {
@@ -172,6 +173,16 @@ Status Pipeline::landmarksAndMap(int32_t frame,
     }
     search_ms = ts.elapsedMs();
     out->pose = localization::toPose2(prediction.T_w_b);
+    // The database gates at the pose the reference landmarks measured when a heading within
+    // the prediction's error passed the check (localization::associationPose); the update's
+    // prior stays the prediction.
+    if (!out->reanchored) {
+      const Pose2 at = localization::toPose2(
+          localization::associationPose(sr, prediction.T_w_b, loc_options_.search));
+      association_moved =
+          at.x_m != out->pose.x_m || at.y_m != out->pose.y_m || at.yaw_rad != out->pose.yaw_rad;
+      out->pose = at;
+    }
   }
   // Gates from the estimate's covariance once the estimator has one (the first frame's pose is
   // the shared start: its covariance is zero but no landmark is confirmed yet).
@@ -224,6 +235,15 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       std::sort(reference_ids_.begin(), reference_ids_.end());
       reference_ids_.erase(std::unique(reference_ids_.begin(), reference_ids_.end()),
                            reference_ids_.end());
+    }
+    if (!r.visual && association_moved) {
+      // No visual pose: the frame is the prediction's (odometry with its grown covariance), not
+      // the pose it was associated at.
+      out->pose = localization::toPose2(estimate_.T_w_b);
+      if (Status s = db_.correctFramePose(out->pose); !s) {
+        out->failure = FrameOutput::Failure::kLandmarks;
+        return s;
+      }
     }
     if (r.visual) {
       out->pose = localization::toPose2(estimate_.T_w_b);

@@ -147,6 +147,9 @@ TEST(PoseSearch, ThePredictionHoldsWithoutASlip) {
   EXPECT_FALSE(res.searched);
   EXPECT_FALSE(res.accepted);
   EXPECT_TRUE(res.T_w_b.isApprox(T_true));
+  // The check passed at the prediction: the database associates there.
+  EXPECT_FALSE(res.heading_passed);
+  EXPECT_TRUE(associationPose(res, T_true, PoseSearchOptions{}).isApprox(T_true));
 }
 
 TEST(PoseSearch, FindsTheSlippedPoseAmongClutter) {
@@ -328,6 +331,25 @@ TEST(PoseSearch, AHeadingThatPassesTheCheckDoesNotStopTheSearch) {
   EXPECT_TRUE(turn.T_w_b.isApprox(T_turn));
   ASSERT_TRUE(turn.step_measured);
   EXPECT_NEAR(turn.step.yaw_rad, 1.5 * kDeg, kYawTolRad);
+  // The database associates at the pose the references measured, not at the prediction
+  // 1.5 degrees off (its gates would sit ~13 px from the corners); the update's prior, T_w_b,
+  // stays the prediction.
+  EXPECT_TRUE(turn.heading_passed);
+  const Eigen::Isometry3d at = associationPose(turn, T_turn, o);
+  const Eigen::Isometry3d at_err = T_true.inverse() * at;
+  EXPECT_LT(at_err.translation().head<2>().norm(), kPositionTolM);
+  EXPECT_LT(std::abs(Eigen::AngleAxisd(at_err.linear()).angle()), kYawTolRad);
+  PoseSearchOptions at_prediction = o;
+  at_prediction.associate_at_step = false;
+  EXPECT_TRUE(associationPose(turn, T_turn, at_prediction).isApprox(T_turn));
+  // After the slip the heading passed too, but the wide search ran: its answer (accepted
+  // here) is the pose, and a refused search would leave the prediction.
+  EXPECT_TRUE(res.heading_passed);
+  EXPECT_TRUE(associationPose(res, T_pred, o).isApprox(res.T_w_b));
+  PoseSearchResult refused = res;
+  refused.accepted = false;
+  refused.T_w_b = T_pred;
+  EXPECT_TRUE(associationPose(refused, T_pred, o).isApprox(T_pred));
 }
 
 TEST(PoseSearch, DenseTextureExplainsASlippedPredictionByChanceOnly) {
