@@ -18,6 +18,11 @@ Eigen::Matrix3d stepCovariance(const OdometryNoise& noise,
          odometryCovariance(noise, std::hypot(motion.x_m, motion.y_m), std::abs(motion.yaw_rad));
 }
 
+Pose2 odometryError(const Pose2& T_w_b_from, const Pose2& odometry_motion, const Pose2& T_w_b_to) {
+  return toPose2((toIsometry(T_w_b_from) * toIsometry(odometry_motion)).inverse() *
+                 toIsometry(T_w_b_to));
+}
+
 SlipTest::SlipTest(const SlipTestOptions& options) : options_(options) {
   const Status st = options.validate();
   TWOCAM_CHECK(st.isOk()) << "invalid SlipTestOptions: " << st.message();

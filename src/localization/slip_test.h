@@ -24,6 +24,16 @@ Eigen::Matrix3d stepCovariance(const OdometryNoise& noise,
                                const Eigen::Matrix3d& previous_cov,
                                const Eigen::Matrix3d& step_cov);
 
+/// The odometry error between two poses the reference landmarks measured: the planar
+/// correction e with T_w_b_to = T_w_b_from * odometry_motion * e, odometry_motion the odometry
+/// increment between the two frames (odometryIncrement). When a frame's measured step did not
+/// correct the estimate (no visual pose: too few inliers), the next prediction still holds that
+/// error and the next step measures it again; against the earlier measured pose each error
+/// enters the slip test once (office_loops seed 5, frames 421-424 in a blank turn: steps of
+/// -1.5, -2.0, -2.5 and -2.8 degrees, one heading error growing, summed as -3.5 degrees and
+/// flagged).
+Pose2 odometryError(const Pose2& T_w_b_from, const Pose2& odometry_motion, const Pose2& T_w_b_to);
+
 /// The window of the last SlipTestOptions::window_frames measured steps. A frame whose step
 /// was not measured (too few references matched: a blank turn) is left out, not a break in the
 /// window: the next measured step is taken against the estimate that frame left, so it spans

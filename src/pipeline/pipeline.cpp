@@ -102,6 +102,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
   double search_ms = 0.0;
   localization::PoseSearchResult sr;
   bool association_moved = false;
+  Eigen::Isometry3d T_w_b_searched = Eigen::Isometry3d::Identity();  // the search's prediction
   Eigen::Matrix3d previous_cov = Eigen::Matrix3d::Zero();
   Pose2 increment;
   if (localizing) {
@@ -130,6 +131,7 @@ Status Pipeline::landmarksAndMap(int32_t frame,
         if (l != nullptr && l->state == landmarks::LandmarkState::kConfirmed)
           reference_w_.push_back(l->p_w);
       }
+      T_w_b_searched = prediction.T_w_b;
       sr = search_.run(
           rig_, prediction.T_w_b, prediction.cov, reference_w_, hyps, loc_options_.search);
       out->search_reference = sr.reference;
@@ -255,12 +257,32 @@ Status Pipeline::landmarksAndMap(int32_t frame,
       }
     }
     // The slip test reads the step the reference landmarks measured against odometry's.
-    if (loc_options_.mode == Mode::kFused && has_estimate_before && sr.step_measured) {
-      out->slip_frame =
-          slip_test_.add(frame,
-                         sr.step,
-                         localization::stepCovariance(
-                             odometry_noise_, increment, sr.step, previous_cov, sr.step_cov));
+    // A step measured on a frame that the estimate was not corrected to stays in the
+    // predictions after it: the next step is taken against that measured pose, so each error
+    // is tested once.
+    const bool fused = loc_options_.mode == Mode::kFused;
+    if (!has_estimate_before) step_carried_ = false;
+    if (fused && has_estimate_before && sr.step_measured) {
+      Pose2 error = sr.step;
+      Pose2 motion = increment;
+      if (step_carried_) {
+        motion = localization::odometryIncrement(carried_odom_, odom_pose);
+        error = localization::odometryError(
+            carried_measured_pose_,
+            motion,
+            localization::toPose2(T_w_b_searched * toIsometry(sr.step)));
+      }
+      out->slip_frame = slip_test_.add(
+          frame,
+          error,
+          localization::stepCovariance(odometry_noise_, motion, error, previous_cov, sr.step_cov));
+    }
+    if (r.visual || sr.accepted || out->reanchored) {
+      step_carried_ = false;
+    } else if (fused && sr.step_measured) {
+      step_carried_ = true;
+      carried_measured_pose_ = localization::toPose2(T_w_b_searched * toIsometry(sr.step));
+      carried_odom_ = odom_pose;
     }
     stale_ids_.clear();
     if (loc_options_.mode == Mode::kFused && loc_options_.search.enabled &&

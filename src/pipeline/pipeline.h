@@ -167,6 +167,12 @@ class Pipeline {
   landmarks::LandmarkDatabase db_;
   mapping::OccupancyMapper mapper_;
   localization::SlipTest slip_test_;
+  /// The last measured pose the estimate was not corrected to (a measured step on a frame
+  /// without a visual pose) and the odometry there: the next measured step is tested against
+  /// it (localization::odometryError), with the estimate's covariance as on any frame.
+  bool step_carried_ = false;
+  Pose2 carried_measured_pose_;
+  Pose2 carried_odom_;
   StereoHypotheses hyps_;
   landmarks::FrameReport report_;
   StereoHypotheses probe_hyps_;  // the re-measurement's output, reused between frames

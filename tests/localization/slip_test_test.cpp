@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
+
+#include "localization/pose_update.h"
 
 namespace twocam::localization {
 namespace {
@@ -121,6 +124,61 @@ TEST(SlipTest, TheOdometryNoiseIsTheMeasuredMotionsNotTheSlipsOwn) {
     }
     EXPECT_EQ(flags, measured_motion ? 1 : 0);
   }
+}
+
+TEST(SlipTest, AnUncorrectedStepIsTestedOnceAgainstTheMeasuredPose) {
+  // A blank turn without visual poses (office_loops seed 5, frames 421-424): each odometry step
+  // turns 0.5 degree too far, nothing corrects the estimate, and the steps the references
+  // measure against the prediction grow with the error the estimate keeps: -1.5, -2.0, -2.5
+  // degrees. Summed, two of them count the first error twice; against the previous measured
+  // pose each frame's own error (0.5 degree) is left.
+  const Pose2 increment{0.05, 0.0, 2.5 * kDeg};
+  const Pose2 odometry_error{0.0, 0.0, 0.5 * kDeg};  // the true motion is increment * error^-1
+  const Eigen::Isometry3d step_true = toIsometry(increment) * toIsometry(odometry_error).inverse();
+  Eigen::Isometry3d T_true = toIsometry(Pose2{1.0, 2.0, 0.3});
+  // The prediction at the first frame is already 1 degree off (earlier frames).
+  Eigen::Isometry3d T_pred = T_true * toIsometry(Pose2{0.0, 0.0, 1.0 * kDeg});
+  Pose2 measured_before = toPose2(T_true);
+  std::vector<Pose2> steps;
+  std::vector<Pose2> errors;
+  for (int k = 0; k < 3; ++k) {
+    T_true = T_true * step_true;
+    T_pred = T_pred * toIsometry(increment);  // no correction: the estimate is the prediction
+    const Pose2 step = toPose2(T_pred.inverse() * T_true);  // what the references measure
+    steps.push_back(step);
+    errors.push_back(odometryError(measured_before, increment, toPose2(T_true)));
+    measured_before = toPose2(T_true);
+  }
+  EXPECT_NEAR(steps[0].yaw_rad, -1.5 * kDeg, 1e-9);
+  EXPECT_NEAR(steps[2].yaw_rad, -2.5 * kDeg, 1e-9);
+  for (const Pose2& e : errors) {
+    EXPECT_NEAR(e.yaw_rad, -0.5 * kDeg, 1e-9);
+    EXPECT_NEAR(e.x_m, 0.0, 1e-9);
+    EXPECT_NEAR(e.y_m, 0.0, 1e-9);
+  }
+  // With the window's covariance of such a frame (0.55 degree per step), the grown steps are
+  // flagged and the errors are not.
+  for (const bool carried : {false, true}) {
+    SlipTest test(SlipTestOptions{});
+    int flags = 0;
+    for (int32_t f = 0; f < 3; ++f) {
+      flags += test.add(f, carried ? errors[f] : steps[f], kStepCov) >= 0 ? 1 : 0;
+    }
+    if (carried) {
+      EXPECT_EQ(flags, 0) << "against the measured pose";
+    } else {
+      EXPECT_GE(flags, 1) << "summed";
+    }
+  }
+  // A frame whose estimate was corrected leaves nothing: from it, the error is the step.
+  const Pose2 corrected = toPose2(T_pred);
+  const Pose2 step{0.01, -0.005, -0.7 * kDeg};
+  const Pose2 e = odometryError(toPose2(toIsometry(corrected) * toIsometry(increment).inverse()),
+                                increment,
+                                toPose2(toIsometry(corrected) * toIsometry(step)));
+  EXPECT_NEAR(e.x_m, step.x_m, 1e-9);
+  EXPECT_NEAR(e.y_m, step.y_m, 1e-9);
+  EXPECT_NEAR(e.yaw_rad, step.yaw_rad, 1e-9);
 }
 
 }  // namespace
