@@ -63,7 +63,9 @@ Status PoseSearchOptions::validate(const char* prefix) const {
                          std::to_string(bins) + " vote bins; at most " +
                          std::to_string(kMaxVoteBins) + " (coarser bins or a smaller search box)");
   }
-  return checkRange(p + "scored_bins", scored_bins, 1, 1000);
+  if (Status s = checkRange(p + "scored_bins", scored_bins, 1, 1000); !s) return s;
+  if (Status s = checkRange(p + "point_bins", point_bins, 0, 1000); !s) return s;
+  return checkRange(p + "ambiguity_sigmas", ambiguity_sigmas, 0.0, 10.0);
 }
 
 Status LocalizationOptions::validate() const {

@@ -145,6 +145,18 @@ struct PoseSearchOptions {
   }
   /// Bins scored [-].
   int scored_bins = 12;
+  /// Single-landmark votes: at each heading bin every candidate of a reference landmark votes
+  /// for the translation that puts the landmark on it, a landmark at most once per bin, so that
+  /// a bin's count is about the matches its pose would score (a pair's votes grow with the
+  /// square of the candidates, and dense ground texture's chance pairs can outnumber the true
+  /// pose's). The fullest point_bins of them not already among the pair bins are scored too
+  /// (0: off) [-].
+  int point_bins = 6;
+  /// Refused as ambiguous also when the winner's lead over the best distinct rival is within
+  /// ambiguity_sigmas x sqrt(winner + rival) matches (a sign test: were the two poses equally
+  /// good, each of those matches would fall to either; 1.645 is one-sided 5 %) [-]. With few
+  /// references (a blank turn: 26 matches against 20) the ratio alone lets a lucky pose pass.
+  double ambiguity_sigmas = 1.645;
 
   [[nodiscard]] Status validate(const char* prefix = "") const;
 };

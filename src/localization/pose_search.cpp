@@ -564,8 +564,53 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
   for (size_t k = 0; k < votes_.size(); ++k) {
     if (votes_[k] > 0) bins.emplace_back(-static_cast<int>(votes_[k]), static_cast<int64_t>(k));
   }
-  const size_t keep = std::min(bins.size(), static_cast<size_t>(o.scored_bins));
+  size_t keep = std::min(bins.size(), static_cast<size_t>(o.scored_bins));
   std::partial_sort(bins.begin(), bins.begin() + static_cast<std::ptrdiff_t>(keep), bins.end());
+  bins.resize(keep);
+  if (o.point_bins > 0) {
+    // Single-landmark votes (PoseSearchOptions::point_bins): at each heading bin, every
+    // candidate of a reference landmark votes for the translation that puts the landmark on
+    // it, a landmark at most once per bin.
+    point_votes_.assign(votes_.size(), 0);
+    point_voter_.assign(votes_.size(), 0);
+    for (int64_t byaw = 0; byaw <= 2 * nbin_yaw; ++byaw) {
+      const double yaw = static_cast<double>(byaw - nbin_yaw) * bin_yaw;
+      if (std::abs(yaw) > max_yaw + 1e-12) continue;
+      Eigen::Matrix2d R;
+      R << std::cos(yaw), -std::sin(yaw), std::sin(yaw), std::cos(yaw);
+      for (size_t i = 0; i < n_refs; ++i) {
+        const Eigen::Vector2d pi = refs[i].p_b.head<2>();
+        const auto voter = static_cast<uint32_t>(i + 1);
+        for (uint32_t a = candidate_start_[i]; a < candidate_start_[i + 1]; ++a) {
+          const Eigen::Vector2d t = pi - R * candidates_[a].q_b.head<2>();
+          const int64_t bx = std::llround(t.x() / o.vote_m) + nbin_t;
+          const int64_t by = std::llround(t.y() / o.vote_m) + nbin_t;
+          if (bx < 0 || by < 0 || bx >= span_t || by >= span_t) continue;
+          const auto k = static_cast<size_t>((byaw * span_t + by) * span_t + bx);
+          if (point_voter_[k] == voter) continue;
+          point_voter_[k] = voter;
+          ++point_votes_[k];
+        }
+      }
+    }
+    std::vector<std::pair<int, int64_t>> pbins;
+    for (size_t k = 0; k < point_votes_.size(); ++k) {
+      if (point_votes_[k] > 0)
+        pbins.emplace_back(-static_cast<int>(point_votes_[k]), static_cast<int64_t>(k));
+    }
+    const size_t pkeep = std::min(pbins.size(), static_cast<size_t>(o.point_bins) + keep);
+    std::partial_sort(
+        pbins.begin(), pbins.begin() + static_cast<std::ptrdiff_t>(pkeep), pbins.end());
+    int added = 0;
+    for (size_t k = 0; k < pkeep && added < o.point_bins; ++k) {
+      bool seen = false;
+      for (const auto& b : bins) seen = seen || b.second == pbins[k].second;
+      if (seen) continue;
+      bins.push_back(pbins[k]);
+      ++added;
+    }
+    keep = bins.size();
+  }
 
   // The search covers pose errors within the box (max_slip_m, max_slip_deg): candidates and
   // votes were taken there, and so were the rivals. A refit that leaves it chases chance
@@ -723,7 +768,7 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
   result.best_chance_score = best_chance;
   const double best_excess = best_score - best_chance;
   const double best_room = best_in_view - best_chance;
-  if (best_excess >= o.min_matches && rival_score < o.ambiguity_ratio * best_score &&
+  if (best_excess >= o.min_matches && winnerStandsOut(best_score, rival_score, o) &&
       best_excess >= o.win_ratio * std::max(1.0, local_score - chance) &&
       best_excess >= o.accept_fraction * best_room) {
     result.accepted = true;
@@ -734,6 +779,11 @@ PoseSearchResult PoseSearch::run(const StereoRig& rig,
     fitStep(rig, T_w_b_predicted, reference_w, hyps, best_correction, &result);
   }
   return result;
+}
+
+bool winnerStandsOut(int best, int rival, const PoseSearchOptions& options) {
+  return rival < options.ambiguity_ratio * best &&
+         best - rival >= options.ambiguity_sigmas * std::sqrt(static_cast<double>(best + rival));
 }
 
 Eigen::Isometry3d associationPose(const PoseSearchResult& result,

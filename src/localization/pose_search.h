@@ -176,6 +176,8 @@ class PoseSearch {
   std::vector<Candidate> candidates_;
   std::vector<uint32_t> candidate_start_;  // per reference landmark used
   std::vector<uint32_t> votes_;            // the vote histogram
+  std::vector<uint32_t> point_votes_;      // single-landmark votes, one per landmark and bin
+  std::vector<uint32_t> point_voter_;      // per bin: 1 + the last landmark that voted there
   std::vector<std::pair<int, uint32_t>> matches_;
   std::vector<std::pair<int, uint32_t>> tried_matches_;  // the scored bins' matches
   static constexpr uint32_t kNoPoint = 0xFFFFFFFFU;
@@ -196,6 +198,11 @@ class PoseSearch {
 Eigen::Isometry3d associationPose(const PoseSearchResult& result,
                                   const Eigen::Isometry3d& T_w_b_predicted,
                                   const PoseSearchOptions& options);
+
+/// Whether a searched pose with `best` matches stands out from the best distinct pose's
+/// `rival` matches: rival below ambiguity_ratio x best, and best - rival at least
+/// ambiguity_sigmas x sqrt(best + rival) (PoseSearchOptions).
+bool winnerStandsOut(int best, int rival, const PoseSearchOptions& options);
 
 /// Planar rigid fit p_i = R(yaw) q_i + t (x, y only) by least squares; (t_x, t_y, yaw).
 Pose2 fitPlanar(const std::vector<Eigen::Vector2d>& q, const std::vector<Eigen::Vector2d>& p);

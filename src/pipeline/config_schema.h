@@ -64,7 +64,7 @@ static_assert(fieldCount<mapping::MappingOptions>() == 8,
 static_assert(
     fieldCount<localization::LocalizationOptions>() == 6,
     "LocalizationOptions gained or lost a field: map it in visitLocalization (see above)");
-static_assert(fieldCount<localization::PoseSearchOptions>() == 19,
+static_assert(fieldCount<localization::PoseSearchOptions>() == 21,
               "PoseSearchOptions gained or lost a field: map it in visitLocalization (see above)");
 static_assert(fieldCount<localization::PoseUpdateOptions>() == 9,
               "PoseUpdateOptions gained or lost a field: map it in visitLocalization (see above)");
@@ -423,6 +423,12 @@ void visitLocalization(O& o, V& v) {
     s("vote_m", so.vote_m, "vote bin: position [m]");
     s("vote_deg", so.vote_deg, "vote bin: heading [deg]");
     s("scored_bins", so.scored_bins, "fullest vote bins scored [-]");
+    s("point_bins",
+      so.point_bins,
+      "fullest single-landmark vote bins scored besides them (0: off) [-]");
+    s("ambiguity_sigmas",
+      so.ambiguity_sigmas,
+      "refused when the winner leads the rival by less than this many sqrt(winner + rival) [-]");
   });
   v.section("pnp", "the vision-only baseline (OpenCV solvePnPRansac)", [&](V& s) {
     auto& po = o.pnp;

@@ -28,8 +28,8 @@ constexpr int kFrontendOwnKeys = 2;  // source, simd
 constexpr int kLandmarkKeys = 53;    // policy + tracker 14 + odometry_noise 5 + refine 2 +
                                      // consistency 23 + seen_count 2 + culling 3 + inlier_ratio 3
 constexpr int kMappingKeys = 8;
-// localization: mode, estimate_gates, update (9), slip (2), search (19), pnp (2).
-constexpr int kLocalizationKeys = 34;
+// localization: mode, estimate_gates, update (9), slip (2), search (21), pnp (2).
+constexpr int kLocalizationKeys = 36;
 constexpr int kTopLevelKeys = 1;  // seed
 
 std::string readFile(const std::string& path) {
