@@ -14,7 +14,9 @@
 #include "frontend/cv_interop.h"
 #include "io/kitti.h"
 #include "io/rawlog.h"
+#include "io/run_writer.h"
 #include "progress.h"
+#include "sim/slip_truth.h"
 #include "sim/wheel_odometry.h"
 #include "sim/world_io.h"
 
@@ -87,6 +89,7 @@ int runImportKitti(const ImportKittiArgs& args) {
 
   // Synthetic odometry is computed up front: a bad noise file fails before anything is written.
   std::vector<Pose2> odometry;
+  std::vector<sim::TrueSlip> true_slips;
   io::RawlogWriterOptions writer_options;
   if (args.synthetic_odometry) {
     sim::OdometryNoiseSpec noise;
@@ -97,6 +100,7 @@ int runImportKitti(const ImportKittiArgs& args) {
                   "' has no poses.txt");
     }
     odometry = sim::syntheticOdometry(seq.t_ns, seq.T_w_b, noise, seed);
+    true_slips = sim::slipsAtTimes(noise.slips, seq.t_ns);
     writer_options.synthetic_odometry = "drawn from the ground truth with the odometry_noise of " +
                                         *args.synthetic_odometry + " (" + describeNoise(noise) +
                                         "), seed " + std::to_string(seed);
@@ -137,6 +141,15 @@ int runImportKitti(const ImportKittiArgs& args) {
     bar.update(k + 1);
   }
   if (Status st = writer->finish(); !st) return fail(st.message());
+  // The slips the synthetic odometry holds, beside the log for `twocam run`'s slip metrics; a
+  // sidecar of an earlier log at this path no longer describes it.
+  const std::string slips_path = sim::slipsSidecarPath(args.output_path);
+  if (args.synthetic_odometry) {
+    if (Status st = io::writeFileAtomically(slips_path, sim::slipsCsv(true_slips)); !st)
+      return fail(st.message());
+  } else {
+    std::filesystem::remove(slips_path, ec);
+  }
   const double total_s = total.elapsedS();
 
   const StereoRig& rig = seq.rig;

@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "sim/slip_truth.h"
 #include "sim/world_files.h"
 #include "sim/world_io.h"
 
@@ -44,6 +45,25 @@ Status evaluationWorld(const RunArgs& args,
     inputs->world_absent = s.message();
   } else {
     inputs->world = world;
+  }
+  // The true slips: the world's, else the sidecar of import-kitti --synthetic-odometry.
+  const std::string slips_sidecar = sim::slipsSidecarPath(args.log_path);
+  if (inputs->world) {
+    inputs->true_slips =
+        sim::slipsAtFrameRate(world->odometry_noise.slips, world->robot.frame_rate_hz);
+    inputs->true_slips_source = *world_path;
+  } else if (std::filesystem::exists(slips_sidecar, ec)) {
+    std::vector<sim::TrueSlip> slips;
+    if (Status s = sim::loadSlipsCsv(slips_sidecar, &slips); !s) {
+      warn("no slip metrics: " + s.message());
+      inputs->true_slips_absent = s.message();
+    } else {
+      inputs->true_slips = std::move(slips);
+      inputs->true_slips_source = slips_sidecar;
+    }
+  } else {
+    inputs->true_slips_absent = "no world file and no " + slips_sidecar +
+                                " beside the log, so the true slip events are unknown";
   }
   return Status::ok();
 }

@@ -10,6 +10,7 @@
 #include "eval/disparity_io.h"
 #include "eval/trajectory_metrics.h"
 #include "landmarks/landmark_model.h"
+#include "sim/slip_truth.h"
 #include "sim/world_files.h"
 
 namespace twocam::eval {
@@ -110,16 +111,14 @@ double finalError(const std::vector<io::TimedPose>& est, const std::vector<io::T
 /// belongs to the first frame at or after its time; it is detected when a flag lies within 2
 /// frames; a flag with no event within 2 frames is a false alarm. Over the first `frames`
 /// processed frames (those with ground truth).
-Json slipsJson(const std::vector<sim::SlipEvent>& events,
-               double frame_rate_hz,
+Json slipsJson(const std::vector<sim::TrueSlip>& slips,
                const pipeline::RunSummary& s,
                size_t frames) {
   constexpr int kWithinFrames = 2;
   const int32_t last_frame = frames == 0 ? -1 : s.records[frames - 1].frame;
   std::vector<int32_t> event_frames;
   std::vector<uint8_t> significant;
-  for (const sim::SlipEvent& e : events) {
-    const auto f = static_cast<int32_t>(std::ceil(e.time_s * frame_rate_hz - 1e-9));
+  for (const auto& [f, e] : slips) {
     if (f < 0 || f > last_frame) continue;
     event_frames.push_back(f);
     significant.push_back(std::hypot(e.dx_m, e.dy_m) >= 0.03 ||
@@ -202,17 +201,6 @@ std::string localizationCsv(const pipeline::RunSummary& s, const std::vector<io:
     }
     csv << ',' << f.reanchor_reference << ',' << (f.reanchored ? 1 : 0) << ','
         << (i < s.landmarks_observed.size() ? s.landmarks_observed[i] : 0) << '\n';
-  }
-  return csv.str();
-}
-
-/// The world's slip events with the frame each belongs to (as slipsJson decides it).
-std::string slipEventsCsv(const std::vector<sim::SlipEvent>& events, double frame_rate_hz) {
-  std::ostringstream csv;
-  csv << std::setprecision(9) << "frame,time_s,dx_m,dy_m,dyaw_deg\n";
-  for (const sim::SlipEvent& e : events) {
-    csv << static_cast<int32_t>(std::ceil(e.time_s * frame_rate_hz - 1e-9)) << ',' << e.time_s
-        << ',' << e.dx_m << ',' << e.dy_m << ',' << e.dyaw_rad * 180.0 / M_PI << '\n';
   }
   return csv.str();
 }
@@ -592,13 +580,11 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
                        {"rpe_rot_deg_per_m", rpe_r},
                        {"rpe_pairs", rpe_n},
                        {"rpe_segment_m", kRpeSegmentM}};
-    if (localizing && inputs_.world) {
-      m["slips"] = slipsJson(inputs_.world->odometry_noise.slips,
-                             inputs_.world->robot.frame_rate_hz,
-                             s,
-                             gt_track_.size());
+    if (localizing && inputs_.true_slips) {
+      m["slips"] = slipsJson(*inputs_.true_slips, s, gt_track_.size());
+      m["slips"]["source"] = inputs_.true_slips_source;
     } else if (localizing) {
-      m["slips"] = {{"absent", "no world file, so the true slip events are unknown"}};
+      m["slips"] = {{"absent", inputs_.true_slips_absent}};
     }
     m["revisits"] = revisitsJson(gt_track_, s);
   } else {
@@ -677,10 +663,8 @@ Status RunEvaluator::finish(const pipeline::Run& run, RunOutputs* out) const {
     files.emplace_back("localization.csv",
                        localizationCsv(s, has_pose_gt ? gt_track_ : std::vector<io::TimedPose>{}));
   }
-  if (localizing && has_gt && inputs_.world) {
-    files.emplace_back(
-        "slip_events.csv",
-        slipEventsCsv(inputs_.world->odometry_noise.slips, inputs_.world->robot.frame_rate_hz));
+  if (localizing && has_pose_gt && inputs_.true_slips) {
+    files.emplace_back("slip_events.csv", sim::slipsCsv(*inputs_.true_slips));
   }
   if (has_pose_gt) {
     files.emplace_back("trajectory_gt.tum",

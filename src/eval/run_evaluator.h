@@ -28,6 +28,7 @@
 #include "mapping/occupancy_mapper.h"
 #include "pipeline/config.h"
 #include "pipeline/run.h"
+#include "sim/slip_truth.h"
 #include "sim/world.h"
 
 namespace twocam::eval {
@@ -66,6 +67,15 @@ class RunEvaluator {
     /// `odometry_synthetic` and a summary line say so, so that results on it are not mistaken
     /// for real odometry.
     std::optional<std::string> synthetic_odometry;
+    /// The log's true slip events (metrics.json `slips.*`, slip_events.csv), from the world
+    /// file or from the slips sidecar of `twocam import-kitti --synthetic-odometry`
+    /// (sim/slip_truth.h); `true_slips_source` names the file. Without them `slips` is
+    /// {"absent": true_slips_absent}.
+    std::optional<std::vector<sim::TrueSlip>> true_slips;
+    std::string true_slips_source;
+    std::string true_slips_absent =
+        "no world file and no slips file, so the true slip events "
+        "are unknown";
   };
 
   RunEvaluator(const StereoRig& rig, const pipeline::PipelineConfig& config, Inputs inputs);

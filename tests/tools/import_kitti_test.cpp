@@ -206,12 +206,19 @@ TEST(ImportKitti, RunSaysTheOdometryIsSynthetic) {
   TWOCAM_REQUIRE_SHARED_DATA(data);
   const std::string seq = data + "/kitti_seq_a";
   const std::string dir = test::makeTempDir("import_kitti_run");
-  ASSERT_EQ(run("import-kitti " + seq + " -o " + dir + "/syn.rawlog --max-frames 8 -q" +
+  // 20 frames at 10 Hz: the noise file's slip at 1.5 s lands on frame 15, the one at 3.5 s
+  // after the end.
+  ASSERT_EQ(run("import-kitti " + seq + " -o " + dir + "/syn.rawlog --max-frames 20 -q" +
                 " --synthetic-odometry " + noiseFile())
                 .exit_code,
             0);
+  EXPECT_EQ(readFile(dir + "/syn.slips.csv"),
+            "frame,time_s,dx_m,dy_m,dyaw_deg\n15,1.5,0.1,0,0\n-1,3.5,0,0,3\n");
+  // A slips file beside an earlier log at the path no longer describes the new one.
+  std::ofstream(dir + "/plain.slips.csv") << "frame,time_s,dx_m,dy_m,dyaw_deg\n1,0.1,0.1,0,0\n";
   ASSERT_EQ(run("import-kitti " + seq + " -o " + dir + "/plain.rawlog --max-frames 8 -q").exit_code,
             0);
+  EXPECT_FALSE(fs::exists(dir + "/plain.slips.csv"));
   const RunResult r = run("run " + dir + "/syn.rawlog -o " + dir + "/syn_run -q --no-pictures");
   ASSERT_EQ(r.exit_code, 0) << r.output << r.error;
   EXPECT_NE(r.output.find("odometry: SYNTHETIC (drawn from the ground truth"), std::string::npos)
@@ -226,10 +233,24 @@ TEST(ImportKitti, RunSaysTheOdometryIsSynthetic) {
                           "\"ate_rmse_m\"",
                           "\"rpe_trans_pct\"",
                           "\"true_pose_consistency\"",
-                          "\"true_pose_judged\"",
-                          "\"slips\": {\"absent\""}) {
+                          "\"true_pose_judged\""}) {
     EXPECT_NE(metrics.find(key), std::string::npos) << key << "\n" << metrics;
   }
+  // Slip detection against the slips file: one slip inside the log.
+  EXPECT_NE(metrics.find("\"source\": \"" + dir + "/syn.slips.csv\""), std::string::npos)
+      << metrics;
+  EXPECT_NE(metrics.find("\"true\": 1"), std::string::npos) << metrics;
+  EXPECT_EQ(readFile(dir + "/syn_run/slip_events.csv"), readFile(dir + "/syn.slips.csv"));
+  // A broken slips file: the run goes on, says so, and reports the slips as absent.
+  std::ofstream(dir + "/syn.slips.csv") << "frame,time_s,dx_m,dy_m,dyaw_deg\n15,x,0,0,0\n";
+  const RunResult b = run("run " + dir + "/syn.rawlog -o " + dir + "/bad_run -q --no-pictures");
+  ASSERT_EQ(b.exit_code, 0) << b.output << b.error;
+  EXPECT_NE(b.error.find("no slip metrics: " + dir + "/syn.slips.csv:2: 'x' is not a finite"),
+            std::string::npos)
+      << b.error;
+  EXPECT_NE(readFile(dir + "/bad_run/metrics.json").find("\"slips\": {\"absent\""),
+            std::string::npos);
+  EXPECT_FALSE(fs::exists(dir + "/bad_run/slip_events.csv"));
   EXPECT_TRUE(fs::exists(dir + "/syn_run/trajectory_gt.tum"));
   EXPECT_TRUE(fs::exists(dir + "/syn_run/trajectory_est.tum"));
 
